@@ -1,0 +1,1 @@
+//! Shared CLI conventions.

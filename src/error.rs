@@ -1,0 +1,49 @@
+//! The library's error type. Every error names the file it concerns and, for
+//! parse errors, where in it (element, row, byte offset or line).
+
+use std::fmt::Display;
+
+/// An error from reading, writing or validating data.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The operating system refused an operation on `path`.
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// `path` is not a valid file of the expected format; `msg` says where and why.
+    #[error("{path}: {msg}")]
+    Format { path: String, msg: String },
+    /// The inputs are well-formed but cannot be used as asked (wrong kind of
+    /// data, inconsistent sizes, an option that does not apply).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Result alias used across the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// An I/O error on `path`.
+    pub fn io(path: impl Display, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.to_string(),
+            source,
+        }
+    }
+
+    /// A format error in `path`.
+    pub fn format(path: impl Display, msg: impl Into<String>) -> Self {
+        Error::Format {
+            path: path.to_string(),
+            msg: msg.into(),
+        }
+    }
+
+    /// Invalid input or options.
+    pub fn invalid(msg: impl Into<String>) -> Self {
+        Error::Invalid(msg.into())
+    }
+}

@@ -1,0 +1,13 @@
+//! File formats: one module per format. Readers produce [`crate::model`]
+//! types; writers take them. Paths of `-` mean stdin / stdout.
+
+pub mod cameras;
+pub mod detect;
+pub mod gltf;
+pub mod obj;
+pub mod off;
+pub mod ply;
+pub mod source;
+pub mod torch_pt;
+
+pub use source::{Input, read_input, write_output};

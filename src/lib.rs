@@ -1,0 +1,14 @@
+//! splatkit: composable commands that turn Gaussian- and triangle-splat scenes
+//! into meshes, bind splats back onto meshes, and evaluate surfaces.
+//!
+//! Layers (data flows one way): [`io`] reads files into [`model`] types,
+//! [`ops`] run the algorithms, [`io`] writes the results. [`cli`] holds the
+//! conventions every command shares (stdin/stdout, progress, threads, exit codes).
+
+pub mod cli;
+pub mod error;
+pub mod io;
+pub mod model;
+pub mod ops;
+
+pub use error::{Error, Result};

@@ -1,0 +1,119 @@
+//! 3D Gaussian splats with raw (pre-activation) parameters, as stored in the
+//! standard 3DGS PLY.
+//!
+//! Conventions:
+//! - `log_scales`: log of the per-axis standard deviation (s = exp(v));
+//! - `rotations`: quaternion **(w, x, y, z)**, unnormalised as stored
+//!   (glam's `Quat` is (x, y, z, w): convert with [`Gaussians::quat`]);
+//! - `opacity_logits`: α = sigmoid(v);
+//! - SH: `sh_dc[i]` = RGB DC coefficients; `sh_rest` holds, per Gaussian,
+//!   `K = (D+1)²−1` coefficients × 3 channels, **coefficient-major**
+//!   (`sh_rest[(i*K + k)*3 + c]`), the in-memory layout of 3DGS. The PLY
+//!   `f_rest_*` properties are channel-major; the PLY reader/writer transposes.
+
+use super::Extras;
+
+/// A set of Gaussians (see the module docs for conventions).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Gaussians {
+    pub means: Vec<[f32; 3]>,
+    /// `nx ny nz` as stored (3DGS writes zeros); `None` when the file had none.
+    pub normals: Option<Vec<[f32; 3]>>,
+    pub sh_degree: usize,
+    pub sh_dc: Vec<[f32; 3]>,
+    pub sh_rest: Vec<f32>,
+    pub opacity_logits: Vec<f32>,
+    pub log_scales: Vec<[f32; 3]>,
+    pub rotations: Vec<[f32; 4]>,
+    /// Unknown vertex properties (row-aligned), other elements and comments.
+    pub extras: Extras,
+}
+
+/// Logistic sigmoid.
+pub fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+/// Inverse of [`sigmoid`] for p in (0, 1).
+pub fn logit(p: f32) -> f32 {
+    (p / (1.0 - p)).ln()
+}
+
+impl Gaussians {
+    /// Number of Gaussians.
+    pub fn len(&self) -> usize {
+        self.means.len()
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.means.is_empty()
+    }
+
+    /// Higher-order SH coefficients per channel, (D+1)²−1.
+    pub fn rest_per_channel(&self) -> usize {
+        (self.sh_degree + 1) * (self.sh_degree + 1) - 1
+    }
+
+    /// Activated opacity of Gaussian `i`.
+    pub fn opacity(&self, i: usize) -> f32 {
+        sigmoid(self.opacity_logits[i])
+    }
+
+    /// Standard deviations of Gaussian `i`.
+    pub fn scales(&self, i: usize) -> [f32; 3] {
+        self.log_scales[i].map(f32::exp)
+    }
+
+    /// Normalised rotation of Gaussian `i` as a glam quaternion (identity if
+    /// the stored quaternion is zero or not finite).
+    pub fn quat(&self, i: usize) -> glam::Quat {
+        let [w, x, y, z] = self.rotations[i];
+        let q = glam::Quat::from_xyzw(x, y, z, w);
+        let n = q.length();
+        if n > 0.0 && n.is_finite() {
+            q / n
+        } else {
+            glam::Quat::IDENTITY
+        }
+    }
+
+    /// SH coefficients of Gaussian `i`, coefficient-major `[k] = [r, g, b]`
+    /// including the DC term at k = 0.
+    pub fn sh_coeffs(&self, i: usize) -> Vec<[f32; 3]> {
+        let k = self.rest_per_channel();
+        let mut out = Vec::with_capacity(k + 1);
+        out.push(self.sh_dc[i]);
+        let rest = &self.sh_rest[i * k * 3..(i + 1) * k * 3];
+        out.extend(rest.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        out
+    }
+
+    /// Checks that every array has one entry per Gaussian.
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.means.len();
+        let k = self.rest_per_channel();
+        if self.sh_degree > 3 {
+            return Err(format!("SH degree {} is above 3", self.sh_degree));
+        }
+        let checks = [
+            ("sh_dc", self.sh_dc.len(), n),
+            ("sh_rest", self.sh_rest.len(), n * k * 3),
+            ("opacity", self.opacity_logits.len(), n),
+            ("scales", self.log_scales.len(), n),
+            ("rotations", self.rotations.len(), n),
+            ("normals", self.normals.as_ref().map_or(n, Vec::len), n),
+        ];
+        for (name, got, want) in checks {
+            if got != want {
+                return Err(format!("{name} has {got} values, expected {want}"));
+            }
+        }
+        for p in &self.extras.item {
+            if p.data.rows() != n {
+                return Err(format!("extra property {} has {} rows, expected {n}", p.name, p.data.rows()));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,125 @@
+//! Triangle-splat soups (Triangle Splatting): independent triangles with a
+//! smooth window (sigma), an opacity and SH colour.
+//!
+//! Stored values are raw: opacity α = sigmoid(`opacity_raw`), window
+//! sharpness σ = 0.01 + exp(`sigma_raw`). SH layout as in
+//! [`super::gaussians`]: `sh_dc[i]` plus `sh_rest` coefficient-major
+//! (`sh_rest[(i*K + k)*3 + c]`, K = (D+1)²−1).
+
+use super::Extras;
+use super::gaussians::sigmoid;
+
+/// Raw sigma that solidified triangles get: the window's hardest edge.
+/// The paper sets σ to 0; σ = 0.01 + exp(raw) cannot reach it, so the raw
+/// value is −∞ (written as the most negative finite f32 would change σ by
+/// nothing measurable, but −∞ states the intent and round-trips in PLY).
+pub const SOLID_SIGMA_RAW: f32 = f32::NEG_INFINITY;
+
+/// Raw opacity that solidified triangles get (sigmoid(+∞) = 1).
+pub const SOLID_OPACITY_RAW: f32 = f32::INFINITY;
+
+/// A triangle soup (see module docs).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriangleSoup {
+    /// Three vertices per triangle, world units.
+    pub triangles: Vec<[[f32; 3]; 3]>,
+    pub opacity_raw: Vec<f32>,
+    pub sigma_raw: Vec<f32>,
+    /// SH degree of the stored coefficients (0–3).
+    pub sh_degree: usize,
+    /// The degree training had reached (`active_sh_degree`), ≤ `sh_degree`.
+    pub active_sh_degree: usize,
+    pub sh_dc: Vec<[f32; 3]>,
+    pub sh_rest: Vec<f32>,
+    /// Unknown per-triangle properties and other file content.
+    pub extras: Extras,
+}
+
+impl TriangleSoup {
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Higher-order SH coefficients per channel, (D+1)²−1.
+    pub fn rest_per_channel(&self) -> usize {
+        (self.sh_degree + 1) * (self.sh_degree + 1) - 1
+    }
+
+    /// Activated opacity α = sigmoid(raw) of triangle `i`.
+    pub fn opacity(&self, i: usize) -> f32 {
+        sigmoid(self.opacity_raw[i])
+    }
+
+    /// Activated window sharpness σ = 0.01 + exp(raw) of triangle `i`.
+    pub fn sigma(&self, i: usize) -> f32 {
+        0.01 + self.sigma_raw[i].exp()
+    }
+
+    /// Centroid of triangle `i`.
+    pub fn centroid(&self, i: usize) -> [f32; 3] {
+        let t = &self.triangles[i];
+        [0, 1, 2].map(|k| (t[0][k] + t[1][k] + t[2][k]) / 3.0)
+    }
+
+    /// SH coefficients of triangle `i`, coefficient-major with DC at k = 0.
+    pub fn sh_coeffs(&self, i: usize) -> Vec<[f32; 3]> {
+        let k = self.rest_per_channel();
+        let mut out = Vec::with_capacity(k + 1);
+        out.push(self.sh_dc[i]);
+        let rest = &self.sh_rest[i * k * 3..(i + 1) * k * 3];
+        out.extend(rest.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        out
+    }
+
+    /// Keeps the triangles whose `keep` flag is set, in order.
+    pub fn filter(&self, keep: &[bool]) -> TriangleSoup {
+        let idx: Vec<usize> = (0..self.len()).filter(|&i| keep[i]).collect();
+        self.gather(&idx)
+    }
+
+    /// The triangles at `idx`, in that order.
+    pub fn gather(&self, idx: &[usize]) -> TriangleSoup {
+        let k3 = self.rest_per_channel() * 3;
+        let mut extras = self.extras.clone();
+        extras.gather_items(idx);
+        TriangleSoup {
+            triangles: idx.iter().map(|&i| self.triangles[i]).collect(),
+            opacity_raw: idx.iter().map(|&i| self.opacity_raw[i]).collect(),
+            sigma_raw: idx.iter().map(|&i| self.sigma_raw[i]).collect(),
+            sh_degree: self.sh_degree,
+            active_sh_degree: self.active_sh_degree,
+            sh_dc: idx.iter().map(|&i| self.sh_dc[i]).collect(),
+            sh_rest: idx
+                .iter()
+                .flat_map(|&i| self.sh_rest[i * k3..(i + 1) * k3].iter().copied())
+                .collect(),
+            extras,
+        }
+    }
+
+    /// Checks that every array has one entry per triangle.
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.len();
+        if self.sh_degree > 3 {
+            return Err(format!("SH degree {} is above 3", self.sh_degree));
+        }
+        let checks = [
+            ("opacity", self.opacity_raw.len(), n),
+            ("sigma", self.sigma_raw.len(), n),
+            ("sh_dc", self.sh_dc.len(), n),
+            ("sh_rest", self.sh_rest.len(), n * self.rest_per_channel() * 3),
+        ];
+        for (name, got, want) in checks {
+            if got != want {
+                return Err(format!("{name} has {got} values, expected {want}"));
+            }
+        }
+        Ok(())
+    }
+}
