@@ -10,5 +10,7 @@ pub mod error;
 pub mod io;
 pub mod model;
 pub mod ops;
+#[doc(hidden)]
+pub mod testing;
 
 pub use error::{Error, Result};
