@@ -25,6 +25,9 @@ pub fn shared_data(rel: &str) -> Option<PathBuf> {
             p.display()
         );
     }
-    eprintln!("skipped: {} is absent (shared data not checked out)", p.display());
+    eprintln!(
+        "skipped: {} is absent (shared data not checked out)",
+        p.display()
+    );
     None
 }

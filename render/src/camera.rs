@@ -169,7 +169,9 @@ mod tests {
         // Behind the camera: no projection.
         assert!(cam.project(center + DVec3::Z).is_none());
         // World +x is image right, world +y is image up (pixel y smaller).
-        let (p2, _) = cam.project(center - 5.0 * DVec3::Z + DVec3::new(1.0, 1.0, 0.0)).unwrap();
+        let (p2, _) = cam
+            .project(center - 5.0 * DVec3::Z + DVec3::new(1.0, 1.0, 0.0))
+            .unwrap();
         assert!((p2.x - 420.0).abs() < 1e-9 && (p2.y - 140.0).abs() < 1e-9);
     }
 }

@@ -120,7 +120,11 @@ mod tests {
             let r = (1.0 - z * z).sqrt();
             let th = golden * i as f64;
             let mut y = [0.0f32; 16];
-            basis(3, [(r * th.cos()) as f32, (r * th.sin()) as f32, z as f32], &mut y);
+            basis(
+                3,
+                [(r * th.cos()) as f32, (r * th.sin()) as f32, z as f32],
+                &mut y,
+            );
             for a in 0..16 {
                 for b in 0..16 {
                     gram[a][b] += y[a] as f64 * y[b] as f64;

@@ -75,7 +75,9 @@ pub fn read_input(path: &Path) -> Result<Input> {
         });
     }
     let mut v = Vec::new();
-    (&file).read_to_end(&mut v).map_err(|e| Error::io(&name, e))?;
+    (&file)
+        .read_to_end(&mut v)
+        .map_err(|e| Error::io(&name, e))?;
     Ok(Input {
         name,
         bytes: InputBytes::Owned(v),

@@ -164,7 +164,11 @@ impl ScalarData {
     /// Keeps the rows whose `keep` flag is set.
     pub fn filter(&self, keep: &[bool]) -> ScalarData {
         fn f<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
-            v.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect()
+            v.iter()
+                .zip(keep)
+                .filter(|(_, k)| **k)
+                .map(|(x, _)| *x)
+                .collect()
         }
         match self {
             ScalarData::I8(v) => ScalarData::I8(f(v, keep)),

@@ -111,7 +111,11 @@ impl Gaussians {
         }
         for p in &self.extras.item {
             if p.data.rows() != n {
-                return Err(format!("extra property {} has {} rows, expected {n}", p.name, p.data.rows()));
+                return Err(format!(
+                    "extra property {} has {} rows, expected {n}",
+                    p.name,
+                    p.data.rows()
+                ));
             }
         }
         Ok(())

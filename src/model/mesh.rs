@@ -62,7 +62,11 @@ impl Mesh {
             _ => Ok(()),
         };
         check("normals", self.normals.as_ref().map(Vec::len), nv)?;
-        check("vertex colours", self.vertex_colors.as_ref().map(Vec::len), nv)?;
+        check(
+            "vertex colours",
+            self.vertex_colors.as_ref().map(Vec::len),
+            nv,
+        )?;
         check(
             "face colours",
             self.face_colors.as_ref().map(Vec::len),
@@ -102,4 +106,3 @@ pub fn bounds(points: &[[f32; 3]]) -> Option<([f32; 3], [f32; 3])> {
     }
     any.then_some((lo, hi))
 }
-

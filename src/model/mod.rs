@@ -8,7 +8,7 @@ pub mod mesh;
 pub mod point_cloud;
 pub mod triangle_soup;
 
-pub use attributes::{Column, Element, Extras, ScalarData, ScalarType};
+pub use attributes::{Column, Element, Extras, Property, ScalarData, ScalarType};
 pub use camera::{Camera, CameraModel};
 pub use gaussians::Gaussians;
 pub use mesh::Mesh;

@@ -113,7 +113,11 @@ impl TriangleSoup {
             ("opacity", self.opacity_raw.len(), n),
             ("sigma", self.sigma_raw.len(), n),
             ("sh_dc", self.sh_dc.len(), n),
-            ("sh_rest", self.sh_rest.len(), n * self.rest_per_channel() * 3),
+            (
+                "sh_rest",
+                self.sh_rest.len(),
+                n * self.rest_per_channel() * 3,
+            ),
         ];
         for (name, got, want) in checks {
             if got != want {

@@ -1,0 +1,209 @@
+//! PLY ↔ [`TriangleSoup`]: splatkit's interchange file for triangle splats.
+//!
+//! A mesh viewer opens it as a mesh: element `vertex` (`x y z`, three
+//! unshared vertices per triangle) and element `face` with `vertex_indices`,
+//! `red green blue` (uchar, the DC colour, for viewers; recomputed on write,
+//! ignored on read) and the raw splat parameters: `opacity` (logit), `sigma`
+//! (raw, σ = 0.01 + exp(raw)), `f_dc_0..2` and channel-major `f_rest_*` as in
+//! 3DGS. A header comment `active_sh_degree D` keeps the training's degree.
+//! Readers accept shared vertices too (any triangle mesh with these face
+//! properties).
+
+use std::io::Write;
+
+use super::common::{take_f32, take_xyz, triangulate, u8_col};
+use super::{Format, Ply, PlyReader, write_ply};
+use crate::model::{Column, Element, Extras, ScalarData, TriangleSoup};
+use crate::{Error, Result};
+
+const ACTIVE_DEGREE: &str = "active_sh_degree ";
+
+/// Parses a triangle-soup PLY.
+pub fn parse_soup(name: &str, bytes: &[u8]) -> Result<TriangleSoup> {
+    let (mut ply, _) = PlyReader::new(name, bytes)?.read()?;
+    let mut v = ply
+        .take_element("vertex")
+        .ok_or_else(|| Error::format(name, "no 'vertex' element"))?;
+    let verts = take_xyz(name, &mut v, ["x", "y", "z"])?
+        .ok_or_else(|| Error::format(name, "element 'vertex' has no x, y, z"))?;
+    let mut f = ply
+        .take_element("face")
+        .ok_or_else(|| Error::format(name, "no 'face' element: not a triangle soup"))?;
+    for need in ["opacity", "sigma", "f_dc_0", "f_dc_1", "f_dc_2"] {
+        if f.property(need).is_none() {
+            return Err(Error::format(
+                name,
+                format!(
+                    "element 'face' has no '{need}': not a triangle-splat soup (export a mesh with `export-off` instead)"
+                ),
+            ));
+        }
+    }
+    let list = f
+        .take("vertex_indices")
+        .or_else(|| f.take("vertex_index"))
+        .ok_or_else(|| Error::format(name, "element 'face' has no vertex_indices list"))?;
+    let (tris, src) = triangulate(name, "face", &list, verts.len())?;
+    if src.len() != f.count || src.iter().enumerate().any(|(i, &s)| i != s) {
+        return Err(Error::format(
+            name,
+            "triangle soup faces must all be triangles",
+        ));
+    }
+    let triangles = tris.iter().map(|t| t.map(|i| verts[i as usize])).collect();
+    let opacity_raw = take_f32(&mut f, "opacity")
+        .ok_or_else(|| Error::format(name, "'opacity' must be a scalar"))?;
+    let sigma_raw =
+        take_f32(&mut f, "sigma").ok_or_else(|| Error::format(name, "'sigma' must be a scalar"))?;
+    let dc: Vec<Vec<f32>> = (0..3)
+        .map(|c| {
+            take_f32(&mut f, &format!("f_dc_{c}"))
+                .ok_or_else(|| Error::format(name, "f_dc_* must be scalars"))
+        })
+        .collect::<Result<_>>()?;
+    let mut rest_idx: Vec<usize> = f
+        .properties
+        .iter()
+        .filter_map(|p| p.name.strip_prefix("f_rest_").and_then(|s| s.parse().ok()))
+        .collect();
+    rest_idx.sort_unstable();
+    let m = rest_idx.len();
+    if rest_idx.iter().enumerate().any(|(i, &r)| i != r) {
+        return Err(Error::format(
+            name,
+            format!("face f_rest_* are not numbered 0..{m} without gaps"),
+        ));
+    }
+    let sh_degree = match m {
+        0 => 0,
+        9 => 1,
+        24 => 2,
+        45 => 3,
+        _ => {
+            return Err(Error::format(
+                name,
+                format!("{m} face f_rest_* properties match no SH degree"),
+            ));
+        }
+    };
+    let k = m / 3;
+    let rest_cols: Vec<Vec<f32>> = (0..m)
+        .map(|i| {
+            take_f32(&mut f, &format!("f_rest_{i}"))
+                .ok_or_else(|| Error::format(name, "f_rest_* must be scalars"))
+        })
+        .collect::<Result<_>>()?;
+    let n = f.count;
+    let mut sh_rest = Vec::with_capacity(n * m);
+    for i in 0..n {
+        for kk in 0..k {
+            for c in 0..3 {
+                sh_rest.push(rest_cols[c * k + kk][i]);
+            }
+        }
+    }
+    for c in ["red", "green", "blue"] {
+        f.take(c);
+    }
+    let mut comments = ply.comments;
+    let mut active = sh_degree;
+    comments.retain(|c| match c.strip_prefix(ACTIVE_DEGREE) {
+        Some(d) => {
+            active = d.trim().parse().unwrap_or(sh_degree).min(sh_degree);
+            false
+        }
+        None => true,
+    });
+    let soup = TriangleSoup {
+        triangles,
+        opacity_raw,
+        sigma_raw,
+        sh_degree,
+        active_sh_degree: active,
+        sh_dc: (0..n).map(|i| [dc[0][i], dc[1][i], dc[2][i]]).collect(),
+        sh_rest,
+        extras: Extras {
+            item: f.properties,
+            vertex: Vec::new(),
+            elements: ply.elements,
+            comments,
+            obj_info: ply.obj_info,
+        },
+    };
+    soup.validate().map_err(|e| Error::format(name, e))?;
+    Ok(soup)
+}
+
+/// The PLY structure of a soup.
+pub fn soup_to_ply(s: &TriangleSoup, format: Format) -> Result<Ply> {
+    s.validate()
+        .map_err(|e| Error::invalid(format!("cannot write triangle soup: {e}")))?;
+    let n = s.len();
+    let mut v = Element::new("vertex", 3 * n);
+    for c in 0..3 {
+        v.push(
+            ["x", "y", "z"][c],
+            Column::Scalar(ScalarData::F32(
+                s.triangles
+                    .iter()
+                    .flat_map(|t| t.iter().map(move |p| p[c]))
+                    .collect(),
+            )),
+        );
+    }
+    let mut f = Element::new("face", n);
+    f.push(
+        "vertex_indices",
+        super::common::triangle_list(
+            &(0..n as u32)
+                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+                .collect::<Vec<_>>(),
+        ),
+    );
+    for c in 0..3 {
+        f.push(
+            ["red", "green", "blue"][c],
+            u8_col(
+                s.sh_dc
+                    .iter()
+                    .map(|d| (splatkit_render::sh::sh_to_rgb(d[c]).clamp(0.0, 1.0) * 255.0) as u8),
+            ),
+        );
+    }
+    let col = |x: &[f32]| Column::Scalar(ScalarData::F32(x.to_vec()));
+    f.push("opacity", col(&s.opacity_raw));
+    f.push("sigma", col(&s.sigma_raw));
+    for c in 0..3 {
+        f.push(
+            format!("f_dc_{c}"),
+            col(&s.sh_dc.iter().map(|d| d[c]).collect::<Vec<_>>()),
+        );
+    }
+    let k = s.rest_per_channel();
+    for c in 0..3 {
+        for kk in 0..k {
+            f.push(
+                format!("f_rest_{}", c * k + kk),
+                col(&(0..n)
+                    .map(|i| s.sh_rest[(i * k + kk) * 3 + c])
+                    .collect::<Vec<_>>()),
+            );
+        }
+    }
+    f.properties.extend(s.extras.item.iter().cloned());
+    let mut comments = s.extras.comments.clone();
+    comments.push(format!("{ACTIVE_DEGREE}{}", s.active_sh_degree));
+    let mut elements = vec![v, f];
+    elements.extend(s.extras.elements.iter().cloned());
+    Ok(Ply {
+        format,
+        comments,
+        obj_info: s.extras.obj_info.clone(),
+        elements,
+    })
+}
+
+/// Writes a soup.
+pub fn write_soup(w: &mut dyn Write, s: &TriangleSoup, format: Format) -> Result<()> {
+    write_ply(w, &soup_to_ply(s, format)?, format)
+}
