@@ -80,15 +80,20 @@ pub fn basis(degree: usize, dir: [f32; 3], out: &mut [f32; 16]) {
 /// Evaluates RGB = Σ_k Y_k(dir)·coeffs[k][c] + 0.5 (unclamped).
 ///
 /// `coeffs` is coefficient-major: `coeffs[k] = [r, g, b]` for k < (degree+1)².
+/// The sum is accumulated in f32 in the reference order (DC term first, then
+/// each band's terms in index order, 0.5 added last), so colours truncated
+/// to 8 bits match the reference exporters bit for bit in practice.
 pub fn eval_rgb(degree: usize, coeffs: &[[f32; 3]], dir: [f32; 3]) -> [f32; 3] {
     let mut y = [0.0f32; 16];
     basis(degree, dir, &mut y);
     let n = coeff_count(degree).min(coeffs.len());
-    let mut rgb = [0.5f32; 3];
-    for k in 0..n {
-        for c in 0..3 {
-            rgb[c] += y[k] * coeffs[k][c];
+    let mut rgb = [0.0f32; 3];
+    for c in 0..3 {
+        let mut acc = y[0] * coeffs[0][c];
+        for k in 1..n {
+            acc += y[k] * coeffs[k][c];
         }
+        rgb[c] = acc + 0.5;
     }
     rgb
 }

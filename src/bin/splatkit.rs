@@ -1,1 +1,3 @@
-fn main() {}
+fn main() {
+    splatkit::cli::commands::splatkit_main()
+}

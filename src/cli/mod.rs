@@ -1,1 +1,2 @@
 //! Shared CLI conventions.
+pub mod commands;

@@ -1,1 +1,140 @@
-//! (being written)
+//! What a file is: format from content first (magic bytes), extension second.
+
+use std::path::Path;
+
+use crate::io::ply::Header;
+
+/// A file format splatkit knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileFormat {
+    Ply,
+    Obj,
+    Off,
+    Glb,
+    Gltf,
+    /// A PyTorch checkpoint (zip container).
+    TorchPt,
+    /// A NumPy `.npz` archive (zip container).
+    Npz,
+    /// A JSON file (cameras.json / transforms.json).
+    Json,
+}
+
+impl FileFormat {
+    /// Lower-case name as used by `--format` and `info`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FileFormat::Ply => "ply",
+            FileFormat::Obj => "obj",
+            FileFormat::Off => "off",
+            FileFormat::Glb => "glb",
+            FileFormat::Gltf => "gltf",
+            FileFormat::TorchPt => "pt",
+            FileFormat::Npz => "npz",
+            FileFormat::Json => "json",
+        }
+    }
+
+    /// From a file extension (case-insensitive).
+    pub fn from_extension(path: &Path) -> Option<FileFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "ply" => FileFormat::Ply,
+            "obj" => FileFormat::Obj,
+            "off" | "coff" | "noff" => FileFormat::Off,
+            "glb" => FileFormat::Glb,
+            "gltf" => FileFormat::Gltf,
+            "pt" | "pth" => FileFormat::TorchPt,
+            "npz" => FileFormat::Npz,
+            "json" => FileFormat::Json,
+            _ => return None,
+        })
+    }
+
+    /// From the first bytes; `None` when the content does not tell.
+    pub fn sniff(bytes: &[u8]) -> Option<FileFormat> {
+        if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
+            return Some(FileFormat::Ply);
+        }
+        if bytes.starts_with(b"glTF") {
+            return Some(FileFormat::Glb);
+        }
+        let text = std::str::from_utf8(&bytes[..bytes.len().min(512)]).unwrap_or("");
+        let first = text.lines().map(str::trim).find(|l| !l.is_empty() && !l.starts_with('#'));
+        if let Some(l) = first
+            && matches!(l.split_whitespace().next(), Some("OFF" | "COFF" | "NOFF" | "CNOFF" | "NCOFF"))
+        {
+            return Some(FileFormat::Off);
+        }
+        None
+    }
+
+    /// Content first, then extension. Zip archives are told apart by
+    /// extension (`.npz` vs `.pt`), defaulting to a torch checkpoint.
+    pub fn detect(path: &Path, bytes: &[u8]) -> Option<FileFormat> {
+        if let Some(f) = Self::sniff(bytes) {
+            return Some(f);
+        }
+        let by_ext = Self::from_extension(path);
+        if bytes.starts_with(b"PK\x03\x04") {
+            return Some(match by_ext {
+                Some(FileFormat::Npz) => FileFormat::Npz,
+                _ => FileFormat::TorchPt,
+            });
+        }
+        by_ext
+    }
+}
+
+/// What a PLY holds, from its header alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlyKind {
+    /// A standard 3DGS Gaussian splat file.
+    Gaussians,
+    /// A SuperSplat compressed splat file (packed chunks).
+    CompressedGaussians,
+    /// A triangle-splat soup (faces carry opacity and sigma).
+    TriangleSoup,
+    /// A triangle / polygon mesh.
+    Mesh,
+    /// Points only (no faces, or an empty face element).
+    PointCloud,
+    /// Something else.
+    Other,
+}
+
+impl PlyKind {
+    /// Classifies a header.
+    pub fn of(h: &Header) -> PlyKind {
+        let Some(v) = h.element("vertex") else {
+            return PlyKind::Other;
+        };
+        let has = |n: &str| v.index_of(n).is_some();
+        if has("packed_position") {
+            return PlyKind::CompressedGaussians;
+        }
+        if has("f_dc_0") && has("opacity") && has("scale_0") && has("rot_0") {
+            return PlyKind::Gaussians;
+        }
+        match h.element("face") {
+            Some(f) if f.index_of("opacity").is_some() && f.index_of("sigma").is_some() => {
+                PlyKind::TriangleSoup
+            }
+            Some(f) if f.count > 0 => PlyKind::Mesh,
+            _ if has("x") => PlyKind::PointCloud,
+            _ => PlyKind::Other,
+        }
+    }
+
+    /// Lower-case name used by `info`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlyKind::Gaussians => "gaussians",
+            PlyKind::CompressedGaussians => "gaussians-compressed",
+            PlyKind::TriangleSoup => "triangle-soup",
+            PlyKind::Mesh => "mesh",
+            PlyKind::PointCloud => "point-cloud",
+            PlyKind::Other => "other",
+        }
+    }
+}

@@ -1,6 +1,7 @@
 //! File formats: one module per format. Readers produce [`crate::model`]
 //! types; writers take them. Paths of `-` mean stdin / stdout.
 
+pub mod any;
 pub mod cameras;
 pub mod detect;
 pub mod gltf;

@@ -9,10 +9,13 @@
 use super::Extras;
 use super::gaussians::sigmoid;
 
-/// Raw sigma that solidified triangles get: the window's hardest edge.
-/// The paper sets σ to 0; σ = 0.01 + exp(raw) cannot reach it, so the raw
-/// value is −∞ (written as the most negative finite f32 would change σ by
-/// nothing measurable, but −∞ states the intent and round-trips in PLY).
+/// Raw sigma that marks a solid triangle (hard window, σ = 0).
+///
+/// The paper's game-engine conversion sets σ to 0, which the activation
+/// 0.01 + exp(raw) cannot reach. splatkit stores raw −∞ and reads it as
+/// σ = 0 ([`TriangleSoup::sigma`]); Triangle Splatting's own code, loading
+/// such a checkpoint, gets its smallest σ (0.01), a window that is 1 inside
+/// the triangle to within 1% except in a thin band at the edges.
 pub const SOLID_SIGMA_RAW: f32 = f32::NEG_INFINITY;
 
 /// Raw opacity that solidified triangles get (sigmoid(+∞) = 1).
@@ -56,9 +59,11 @@ impl TriangleSoup {
         sigmoid(self.opacity_raw[i])
     }
 
-    /// Activated window sharpness σ = 0.01 + exp(raw) of triangle `i`.
+    /// Activated window sharpness σ = 0.01 + exp(raw) of triangle `i`;
+    /// 0 for the solid marker raw = −∞ ([`SOLID_SIGMA_RAW`]).
     pub fn sigma(&self, i: usize) -> f32 {
-        0.01 + self.sigma_raw[i].exp()
+        let raw = self.sigma_raw[i];
+        if raw == f32::NEG_INFINITY { 0.0 } else { 0.01 + raw.exp() }
     }
 
     /// Centroid of triangle `i`.

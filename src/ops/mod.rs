@@ -1,1 +1,8 @@
-//! One module per command.
+//! One module per command. Each holds the command's pure core (callable from
+//! Rust on model types), its clap arguments and `run`, which only resolves
+//! files, progress and output.
+
+pub mod demo;
+pub mod export_off;
+pub mod info;
+pub mod prune_triangles;

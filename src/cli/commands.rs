@@ -1,0 +1,78 @@
+//! Entry points of the binaries: each per-command binary and the umbrella
+//! `splatkit` binary parse the same argument structs and call the same `run`.
+
+use clap::{Parser, Subcommand};
+
+use crate::ops::{demo, export_off, info, prune_triangles};
+
+/// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
+#[derive(Parser, Debug)]
+#[command(name = "splatkit", version, propagate_version = true, after_help = "Examples:
+  splatkit demo -o demo-out                 # the built-in demo scene, end to end
+  splatkit info scene.ply
+  splatkit prune-triangles scene.pt --game-engine -o - | splatkit export-off - -o scene.off")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands (each also exists as its own binary).
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Describe files: format, kind, counts, bounding box, SH degree, cameras.
+    Info(info::InfoArgs),
+    /// Filter a triangle-splat soup by opacity, sigma and count; solidify.
+    PruneTriangles(prune_triangles::PruneTrianglesArgs),
+    /// Export a triangle soup or mesh to OFF (Triangle Splatting layout), GLB, PLY or OBJ.
+    ExportOff(export_off::ExportOffArgs),
+    /// Run the triangle tools end to end on a generated scene.
+    Demo(demo::DemoArgs),
+}
+
+/// `main` of the umbrella binary.
+pub fn splatkit_main() -> ! {
+    let cli = Cli::parse();
+    super::exit_with(match cli.command {
+        Command::Info(a) => info::run(a),
+        Command::PruneTriangles(a) => prune_triangles::run(a),
+        Command::ExportOff(a) => export_off::run(a),
+        Command::Demo(a) => demo::run(a),
+    })
+}
+
+macro_rules! single_command {
+    ($fn_name:ident, $bin:literal, $args:ty, $run:path, $about:literal) => {
+        /// `main` of the single-command binary.
+        pub fn $fn_name() -> ! {
+            #[derive(Parser, Debug)]
+            #[command(name = $bin, version, about = $about)]
+            struct One {
+                #[command(flatten)]
+                args: $args,
+            }
+            super::exit_with($run(One::parse().args))
+        }
+    };
+}
+
+single_command!(
+    info_main,
+    "info",
+    info::InfoArgs,
+    info::run,
+    "Describe files: format, kind, counts, bounding box, SH degree, cameras."
+);
+single_command!(
+    prune_triangles_main,
+    "prune-triangles",
+    prune_triangles::PruneTrianglesArgs,
+    prune_triangles::run,
+    "Filter a triangle-splat soup by opacity, sigma and count; solidify for game engines."
+);
+single_command!(
+    export_off_main,
+    "export-off",
+    export_off::ExportOffArgs,
+    export_off::run,
+    "Export a triangle soup or mesh to OFF (Triangle Splatting layout), GLB, glTF, PLY or OBJ."
+);
