@@ -642,7 +642,8 @@ mod tests {
             (12345.678f32 as f64, "12345.677734375"),
             // Exactly halfway between two 16-digit strings that both round-trip:
             // Python takes the even one, Rust's shortest `{:e}` the other.
-            (966.76934814453125, "966.7693481445312"),
+            // (the value is exactly 966.76934814453125).
+            (f64::from_bits(4651715008936280064), "966.7693481445312"),
             (5e-324, "5e-324"),
             (123456789012345678.0, "1.2345678901234568e+17"),
             (1.0, "1.0"),
