@@ -45,7 +45,7 @@ pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
         extras: Extras::default(),
         ..Default::default()
     };
-    let mut push = |s: &mut TriangleSoup, t: [[f32; 3]; 3], opacity: f32, sigma: f32, rgb: [f32; 3], rng: &mut rand_pcg::Pcg64Mcg| {
+    let push = |s: &mut TriangleSoup, t: [[f32; 3]; 3], opacity: f32, sigma: f32, rgb: [f32; 3], rng: &mut rand_pcg::Pcg64Mcg| {
         s.triangles.push(t);
         s.opacity_raw.push(logit(opacity));
         s.sigma_raw.push((sigma - 0.01).ln());

@@ -11,7 +11,7 @@ use serde::Serialize;
 use crate::cli::{Common, shown};
 use crate::io::detect::{FileFormat, PlyKind};
 use crate::io::ply::header::PropertyKind;
-use crate::io::ply::{PlyReader, parse_ply};
+use crate::io::ply::PlyReader;
 use crate::io::{cameras, gltf, obj, off, read_input, torch_pt};
 use crate::model::mesh::bounds;
 use crate::model::{Column, Mesh};
