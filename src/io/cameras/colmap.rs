@@ -85,9 +85,10 @@ impl ColmapCamera {
         model_by_id(self.model_id).map_or("UNKNOWN", |m| m.0)
     }
 
-    /// `(fx, fy, cx, cy, model)` in pixels: models with a single focal
-    /// length (SIMPLE_*, RADIAL, RADIAL_FISHEYE, SIMPLE_DIVISION) store
-    /// `f, cx, cy, …`, the others `fx, fy, cx, cy, …`.
+    /// `(fx, fy, cx, cy, model)` in pixels, or `None` for an unknown model
+    /// id or a wrong parameter count. Models with a single focal length
+    /// (SIMPLE_*, RADIAL, RADIAL_FISHEYE) store `f, cx, cy, …`, the others
+    /// `fx, fy, cx, cy, …`; the parameters after those are the distortion.
     pub fn intrinsics(&self) -> Option<(f64, f64, f64, f64, CameraModel)> {
         let (name, n) = model_by_id(self.model_id)?;
         if self.params.len() != n {

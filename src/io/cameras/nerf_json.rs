@@ -5,7 +5,8 @@
 //! **OpenGL camera axes** (x right, y up, z backward). The reader converts to
 //! OpenCV axes by negating the camera's y and z axes (the 2nd and 3rd
 //! columns of the rotation), as 3DGS's `readCamerasFromTransforms` does, then
-//! inverts to world-to-camera.
+//! inverts to world-to-camera. A 3×4 matrix (no last row) is accepted; the
+//! rotation block must be orthonormal (no scale), the last row `[0, 0, 0, 1]`.
 //!
 //! Intrinsics, each looked up in the frame first, then at the top level (as
 //! nerfstudio allows per-frame values):
