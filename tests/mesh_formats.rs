@@ -241,3 +241,50 @@ proptest! {
         }
     }
 }
+
+/// The Stanford Bunny (ASCII PLY in the shared data) rewritten as an OFF
+/// text by plain line surgery (vertex lines keep only x y z; face lines are
+/// already `3 a b c`), then read by the OFF reader and sent through every
+/// writer/reader pair. Counts and bounds come from the data set's SOURCE.md.
+#[test]
+fn stanford_bunny_through_every_format() {
+    let Some(p) = splatkit::testing::shared_data("scanned-meshes/bun_zipper.ply") else {
+        return;
+    };
+    let text = std::fs::read_to_string(p).unwrap();
+    let body = text.split_once("end_header\n").unwrap().1;
+    let mut lines = body.lines();
+    let mut off = String::from("OFF\n35947 69451 0\n");
+    for l in lines.by_ref().take(35947) {
+        let xyz: Vec<&str> = l.split_whitespace().take(3).collect();
+        off.push_str(&xyz.join(" "));
+        off.push('\n');
+    }
+    for l in lines.take(69451) {
+        off.push_str(l);
+        off.push('\n');
+    }
+    let mesh = parse_off("bunny.off", off.as_bytes()).unwrap();
+    assert_eq!((mesh.vertices.len(), mesh.faces.len()), (35947, 69451));
+    let (lo, hi) = mesh.bounds().unwrap();
+    // SOURCE.md gives the box to 3 significant digits (±0.00005 m).
+    let want_lo = [-0.0947f32, 0.0330, -0.0619];
+    let want_hi = [0.0610f32, 0.1873, 0.0588];
+    for k in 0..3 {
+        assert!((lo[k] - want_lo[k]).abs() < 6e-5, "{lo:?}");
+        assert!((hi[k] - want_hi[k]).abs() < 6e-5, "{hi:?}");
+    }
+    let mut obj = Vec::new();
+    write_obj(&mut obj, &mesh, &ObjWriteOptions::default()).unwrap();
+    assert_eq!(parse_obj("bunny.obj", &obj).unwrap(), mesh);
+    let mut glb = Vec::new();
+    write_gltf(&mut glb, &mesh, &GltfWriteOptions::default()).unwrap();
+    assert_eq!(parse_gltf("bunny.glb", &glb).unwrap(), mesh);
+    let mut ts = Vec::new();
+    let coloured = Mesh {
+        face_colors: Some(vec![[200, 100, 50, 255]; mesh.faces.len()]),
+        ..mesh.clone()
+    };
+    write_off(&mut ts, &coloured, &OffWriteOptions::triangle_splatting()).unwrap();
+    assert_eq!(parse_off("bunny_ts.off", &ts).unwrap(), coloured);
+}
