@@ -437,9 +437,28 @@ fn parse_gltf_impl(name: &str, bytes: &[u8], base: Option<&Path>) -> Result<Mesh
     } else {
         (bytes, None)
     };
-    let doc = gltf::Gltf::from_slice(json_bytes)
-        .map_err(|e| Error::format(name, format!("invalid glTF JSON: {e}")))?
-        .document;
+    let root = json::Root::from_slice(json_bytes)
+        .map_err(|e| Error::format(name, format!("invalid glTF JSON: {e}")))?;
+    // gltf-json's own validation indexes the POSITION accessor without a
+    // bounds check (it panics on a bad index), so check that one first.
+    for (mi, m) in root.meshes.iter().enumerate() {
+        for (pi, p) in m.primitives.iter().enumerate() {
+            for (sem, idx) in &p.attributes {
+                if idx.value() >= root.accessors.len() {
+                    return Err(Error::format(
+                        name,
+                        format!(
+                            "mesh {mi} primitive {pi} attribute {sem:?}: accessor {} does not exist ({} accessors)",
+                            idx.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let doc = gltf::Document::from_json(root)
+        .map_err(|e| Error::format(name, format!("invalid glTF: {e}")))?;
     let buffers = load_buffers(name, &doc, blob, base)?;
     let mut out = Merge::default();
     for (mesh, matrix) in mesh_instances(name, &doc)? {
@@ -595,6 +614,9 @@ fn local_matrix(node: &gltf::Node) -> glam::DMat4 {
     }
 }
 
+/// Largest all-zero accessor (no buffer view) accepted, in bytes.
+const ZERO_ACCESSOR_LIMIT: usize = 64 << 20;
+
 /// Where an accessor is, for messages and buffer access.
 struct Ctx<'a, 'b> {
     name: &'a str,
@@ -625,6 +647,16 @@ impl Ctx<'_, '_> {
         }
         let elem = acc.size();
         let Some(view) = acc.view() else {
+            // All zeros; bound the declared count before anything allocates it.
+            if acc.count().saturating_mul(elem) > ZERO_ACCESSOR_LIMIT {
+                return Err(self.err(
+                    &what,
+                    format!(
+                        "accessor without buffer view declares {} elements (more than {ZERO_ACCESSOR_LIMIT} bytes of zeros)",
+                        acc.count()
+                    ),
+                ));
+            }
             return Ok(None);
         };
         let buf = &self.buffers[view.buffer().index()];
@@ -1258,6 +1290,48 @@ mod tests {
         let text = r#"{"asset":{"version":"2.0"},"nodes":[{"children":[1]},{"children":[0]}],"scenes":[{"nodes":[0]}]}"#;
         let e = parse_gltf("t", text.as_bytes()).unwrap_err().to_string();
         assert!(e.contains("node 0 is reached twice"), "{e}");
+    }
+
+    #[test]
+    fn every_number_replaced_never_panics() {
+        // Each integer in a valid document (indices, offsets, lengths,
+        // counts, component types, modes) replaced by extreme values: the
+        // reader returns a mesh or an error, never panics or over-allocates.
+        let nodes = r#""nodes":[{"mesh":0,"translation":[10,0,0],"children":[1]},{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0"#;
+        let text = hand_made(nodes, 4, &[0, 1, 2, 2, 1, 3]);
+        let json_start = text.find("\"bufferViews\"").unwrap();
+        let bytes = text.as_bytes();
+        let mut tried = 0;
+        let mut i = json_start;
+        while i < bytes.len() {
+            if bytes[i].is_ascii_digit() && !bytes[i - 1].is_ascii_alphanumeric() {
+                let end = i + bytes[i..].iter().take_while(|b| b.is_ascii_digit()).count();
+                for rep in [
+                    "0",
+                    "1",
+                    "3",
+                    "7",
+                    "5121",
+                    "4294967295",
+                    "18446744073709551615",
+                    "-1",
+                ] {
+                    let t = format!("{}{rep}{}", &text[..i], &text[end..]);
+                    if let Err(e) = parse_gltf("t.gltf", t.as_bytes()) {
+                        assert!(e.to_string().starts_with("t.gltf: "), "{e}");
+                    }
+                    tried += 1;
+                }
+                i = end;
+            } else {
+                i += 1;
+            }
+        }
+        assert!(tried > 200, "only {tried} variants");
+        // The panic gltf-json would raise on a bad POSITION accessor index.
+        let t = text.replace(r#""POSITION":0,"COLOR_0""#, r#""POSITION":9,"COLOR_0""#);
+        let e = parse_gltf("t.gltf", t.as_bytes()).unwrap_err().to_string();
+        assert!(e.contains("accessor 9 does not exist"), "{e}");
     }
 
     #[test]

@@ -31,14 +31,14 @@
 //!
 //! # Writing
 //! `v x y z [r g b]`, `vn nx ny nz`, `f a b c` or `f a//a b//b c//c`, 1-based,
-//! floats in shortest round-trip form ([`format_f32_shortest`]). OBJ has no
+//! floats in shortest round-trip form ([`crate::io::off::format_f32_shortest`]). OBJ has no
 //! alpha and no per-face colours; see [`ObjWriteOptions`].
 
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::Path;
 
-use crate::io::off::format_f32_shortest;
+use crate::io::off::{push_f32_shortest, write_lines_par};
 use crate::io::source::werr;
 use crate::model::Mesh;
 use crate::{Error, Result};
@@ -368,7 +368,6 @@ fn write_obj_validated(w: &mut dyn Write, mesh: &Mesh, opts: &ObjWriteOptions) -
     use std::fmt::Write as _;
     let colors = mesh.vertex_colors.as_ref().filter(|_| opts.colors);
     let normals = mesh.normals.as_ref().filter(|_| opts.normals);
-    let mut line = String::with_capacity(128);
     writeln!(
         w,
         "# {} vertices, {} triangles (splatkit)",
@@ -376,45 +375,40 @@ fn write_obj_validated(w: &mut dyn Write, mesh: &Mesh, opts: &ObjWriteOptions) -
         mesh.faces.len()
     )
     .map_err(werr)?;
-    for (i, v) in mesh.vertices.iter().enumerate() {
-        line.clear();
+    write_lines_par(w, &mesh.vertices, |line, i, v| {
         line.push('v');
         for &x in v {
             line.push(' ');
-            line.push_str(&format_f32_shortest(x));
+            push_f32_shortest(line, x);
         }
         if let Some(c) = colors {
             for &x in &c[i][..3] {
                 line.push(' ');
-                line.push_str(&format_f32_shortest(f32::from(x) / 255.0));
+                push_f32_shortest(line, f32::from(x) / 255.0);
             }
         }
         line.push('\n');
-        w.write_all(line.as_bytes()).map_err(werr)?;
-    }
+    })?;
     if let Some(ns) = normals {
-        for n in ns {
-            line.clear();
+        write_lines_par(w, ns, |line, _, n| {
             line.push_str("vn");
             for &x in n {
                 line.push(' ');
-                line.push_str(&format_f32_shortest(x));
+                push_f32_shortest(line, x);
             }
             line.push('\n');
-            w.write_all(line.as_bytes()).map_err(werr)?;
-        }
+        })?;
     }
-    for f in &mesh.faces {
-        line.clear();
+    let with_normals = normals.is_some();
+    write_lines_par(w, &mesh.faces, |line, _, f| {
         let [a, b, c] = f.map(|i| u64::from(i) + 1);
         // Writing into a String cannot fail.
-        let _ = if normals.is_some() {
+        let _ = if with_normals {
             writeln!(line, "f {a}//{a} {b}//{b} {c}//{c}")
         } else {
             writeln!(line, "f {a} {b} {c}")
         };
-        w.write_all(line.as_bytes()).map_err(werr)?;
-    }
+    })?;
     Ok(())
 }
 

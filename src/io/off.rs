@@ -155,31 +155,27 @@ pub fn write_off(w: &mut dyn Write, mesh: &Mesh, opts: &OffWriteOptions) -> Resu
         OffHeader::Off => "OFF",
         OffHeader::Coff => "COFF",
     };
-    let mut line = String::with_capacity(128);
     writeln!(w, "{keyword}").map_err(werr)?;
     writeln!(w, "{} {} 0", mesh.vertices.len(), mesh.faces.len()).map_err(werr)?;
-    let fmt = |x: f32| match opts.float_style {
-        FloatStyle::Shortest => format_f32_shortest(x),
-        FloatStyle::PythonRepr => python_float_repr(f64::from(x)),
-    };
     use std::fmt::Write as _;
-    for (i, v) in mesh.vertices.iter().enumerate() {
-        line.clear();
-        line.push_str(&fmt(v[0]));
-        line.push(' ');
-        line.push_str(&fmt(v[1]));
-        line.push(' ');
-        line.push_str(&fmt(v[2]));
+    write_lines_par(w, &mesh.vertices, |line, i, v| {
+        for (k, &x) in v.iter().enumerate() {
+            if k > 0 {
+                line.push(' ');
+            }
+            match opts.float_style {
+                FloatStyle::Shortest => push_f32_shortest(line, x),
+                FloatStyle::PythonRepr => python_float_repr_into(f64::from(x), line),
+            }
+        }
         if let Some(c) = vcol {
             let c = c[i];
             // Writing into a String cannot fail.
             let _ = write!(line, " {} {} {} {}", c[0], c[1], c[2], c[3]);
         }
         line.push('\n');
-        w.write_all(line.as_bytes()).map_err(werr)?;
-    }
-    for (i, f) in mesh.faces.iter().enumerate() {
-        line.clear();
+    })?;
+    write_lines_par(w, &mesh.faces, |line, i, f| {
         let _ = write!(line, "3 {} {} {}", f[0], f[1], f[2]);
         if let Some(c) = fcol {
             let c = c[i];
@@ -187,7 +183,38 @@ pub fn write_off(w: &mut dyn Write, mesh: &Mesh, opts: &OffWriteOptions) -> Resu
             let _ = write!(line, " {} {} {} {a}", c[0], c[1], c[2]);
         }
         line.push('\n');
-        w.write_all(line.as_bytes()).map_err(werr)?;
+    })?;
+    Ok(())
+}
+
+/// Formats `items` in parallel (blocks of lines, in order) with `f(out,
+/// index, item)`, which appends one or more complete lines to `out`, and
+/// writes them to `w` in order. Memory stays bounded: a batch of blocks is
+/// written before the next is formatted.
+pub(crate) fn write_lines_par<T: Sync>(
+    w: &mut dyn Write,
+    items: &[T],
+    f: impl Fn(&mut String, usize, &T) + Sync,
+) -> Result<()> {
+    use rayon::prelude::*;
+    const BLOCK: usize = 16 * 1024;
+    const BATCH: usize = 64 * BLOCK;
+    for (b, batch) in items.chunks(BATCH).enumerate() {
+        let texts: Vec<String> = batch
+            .par_chunks(BLOCK)
+            .enumerate()
+            .map(|(c, block)| {
+                let mut s = String::with_capacity(block.len() * 40);
+                let first = b * BATCH + c * BLOCK;
+                for (k, item) in block.iter().enumerate() {
+                    f(&mut s, first + k, item);
+                }
+                s
+            })
+            .collect();
+        for t in &texts {
+            w.write_all(t.as_bytes()).map_err(werr)?;
+        }
     }
     Ok(())
 }
@@ -198,12 +225,21 @@ pub fn write_off(w: &mut dyn Write, mesh: &Mesh, opts: &OffWriteOptions) -> Resu
 /// `1e-7`, `3.4028235e38`) so that no number is longer than 17
 /// characters. Non-finite values print as `inf`, `-inf`, `NaN`.
 pub fn format_f32_shortest(x: f32) -> String {
+    let mut s = String::with_capacity(16);
+    push_f32_shortest(&mut s, x);
+    s
+}
+
+/// [`format_f32_shortest`] appending to `out`.
+pub fn push_f32_shortest(out: &mut String, x: f32) {
+    use std::fmt::Write as _;
     let a = x.abs();
-    if x == 0.0 || !x.is_finite() || (1e-5..1e16).contains(&a) {
-        format!("{x}")
+    // Writing into a String cannot fail.
+    let _ = if x == 0.0 || !x.is_finite() || (1e-5..1e16).contains(&a) {
+        write!(out, "{x}")
     } else {
-        format!("{x:e}")
-    }
+        write!(out, "{x:e}")
+    };
 }
 
 /// Formats `x` exactly as Python 3's `repr(float)` does: the shortest digits
@@ -213,46 +249,53 @@ pub fn format_f32_shortest(x: f32) -> String {
 /// exponent signed and at least two digits (`1e-05`, `1.5e+16`,
 /// `1.2345678901234568e+17`). Non-finite values print as `inf`, `-inf`, `nan`.
 pub fn python_float_repr(x: f64) -> String {
+    let mut out = String::with_capacity(24);
+    python_float_repr_into(x, &mut out);
+    out
+}
+
+/// [`python_float_repr`] appending to `out` (no allocation when `out` has
+/// room).
+pub fn python_float_repr_into(x: f64, out: &mut String) {
+    use std::fmt::Write as _;
     if x.is_nan() {
-        return "nan".into();
+        out.push_str("nan");
+        return;
     }
     if x.is_infinite() {
-        return if x > 0.0 { "inf".into() } else { "-inf".into() };
+        out.push_str(if x > 0.0 { "inf" } else { "-inf" });
+        return;
     }
-    // `{:e}` gives the shortest round-trip digit count as `[-]d[.ddd]e[-]N`.
-    // When two strings of that length round-trip (the value lies exactly
-    // between them), Rust and Python may pick different ones; Python picks
-    // the one nearest to `x`, ties to even, which is exactly the correctly
-    // rounded value with that many significant digits.
-    let shortest = format!("{x:e}");
-    let n_digits = shortest
-        .split_once('e')
-        .map_or(1, |(m, _)| m.bytes().filter(u8::is_ascii_digit).count());
-    let sci = format!("{x:.*e}", n_digits - 1);
-    let (neg, body) = match sci.strip_prefix('-') {
-        Some(b) => (true, b),
-        None => (false, sci.as_str()),
-    };
-    let (mant, exp) = body
-        .split_once('e')
-        .expect("Rust's {:e} float format always contains 'e'");
-    let exp: i32 = exp
-        .parse()
-        .expect("Rust's {:e} float format has an integer exponent");
-    let mut digits: String = mant.chars().filter(|&c| c != '.').collect();
-    while digits.len() > 1 && digits.ends_with('0') {
-        digits.pop();
+    // `{:e}` gives the shortest round-trip digits as `[-]d[.ddd]e[-]N`.
+    let start = out.len();
+    // Writing into a String cannot fail.
+    let _ = write!(out, "{x:e}");
+    let (mut digits, mut n, mut exp) = split_sci(&out[start..]);
+    // When two strings of that length round-trip because `x` lies exactly
+    // halfway between them, Python (David Gay's dtoa) takes the even one
+    // and Rust may take the other: redo those with the correctly rounded
+    // (ties-to-even) value at that many significant digits.
+    if is_decimal_tie(x, n) {
+        out.truncate(start);
+        let _ = write!(out, "{x:.*e}", n - 1);
+        (digits, n, exp) = split_sci(&out[start..]);
+        while n > 1 && digits[n - 1] == b'0' {
+            n -= 1;
+        }
     }
-    let mut out = String::with_capacity(digits.len() + 8);
-    if neg {
+    out.truncate(start);
+    let digits = &digits[..n];
+    // The digits are ASCII, so this never falls back.
+    let digits = std::str::from_utf8(digits).unwrap_or("0");
+    if x.is_sign_negative() {
         out.push('-');
     }
     if (-4..16).contains(&exp) {
         if exp >= 0 {
             let int_len = exp as usize + 1;
-            if digits.len() <= int_len {
-                out.push_str(&digits);
-                out.extend(std::iter::repeat_n('0', int_len - digits.len()));
+            if n <= int_len {
+                out.push_str(digits);
+                out.extend(std::iter::repeat_n('0', int_len - n));
                 out.push_str(".0");
             } else {
                 out.push_str(&digits[..int_len]);
@@ -262,23 +305,80 @@ pub fn python_float_repr(x: f64) -> String {
         } else {
             out.push_str("0.");
             out.extend(std::iter::repeat_n('0', (-exp - 1) as usize));
-            out.push_str(&digits);
+            out.push_str(digits);
         }
     } else {
         out.push_str(&digits[..1]);
-        if digits.len() > 1 {
+        if n > 1 {
             out.push('.');
             out.push_str(&digits[1..]);
         }
-        out.push('e');
-        out.push(if exp < 0 { '-' } else { '+' });
-        let a = exp.unsigned_abs();
-        if a < 10 {
-            out.push('0');
-        }
-        out.push_str(&a.to_string());
+        let _ = write!(
+            out,
+            "e{}{:02}",
+            if exp < 0 { '-' } else { '+' },
+            exp.unsigned_abs()
+        );
     }
-    out
+}
+
+/// Splits Rust's `[-]d[.ddd]e[-]N` into (digits, digit count, exponent).
+fn split_sci(s: &str) -> ([u8; 40], usize, i32) {
+    let s = s.strip_prefix('-').unwrap_or(s);
+    let (mant, exp) = s.split_once('e').unwrap_or((s, "0"));
+    let mut digits = [b'0'; 40];
+    let mut n = 0;
+    for b in mant.bytes().filter(u8::is_ascii_digit) {
+        if n < digits.len() {
+            digits[n] = b;
+            n += 1;
+        }
+    }
+    (digits, n.max(1), exp.parse().unwrap_or(0))
+}
+
+/// True when the exact decimal expansion of `x` (finite, non-zero) has
+/// exactly `n + 1` significant digits, the last a 5: `x` is then halfway
+/// between two `n`-digit decimals. Every finite double is `m · 2^q` (`m`
+/// odd), whose expansion is the integer `m · 5^-q` shifted (q < 0) or
+/// `m · 2^q` (q ≥ 0).
+fn is_decimal_tie(x: f64, n: usize) -> bool {
+    let bits = x.abs().to_bits();
+    let biased = ((bits >> 52) & 0x7ff) as i32;
+    let frac = bits & ((1 << 52) - 1);
+    let (m, q) = if biased == 0 {
+        (frac, -1074)
+    } else {
+        (frac | (1 << 52), biased - 1075)
+    };
+    if m == 0 {
+        return false;
+    }
+    let tz = m.trailing_zeros();
+    let (m, q) = (m >> tz, q + tz as i32);
+    let v = if q < 0 {
+        // Beyond 5^55 the product exceeds u128: over 38 significant digits,
+        // never a tie at n ≤ 17.
+        let k = (-q) as u32;
+        if k > 55 {
+            return false;
+        }
+        match u128::from(m).checked_mul(5u128.pow(k)) {
+            Some(v) => v,
+            None => return false,
+        }
+    } else if q < 75 {
+        let mut v = u128::from(m) << q;
+        while v % 10 == 0 {
+            v /= 10;
+        }
+        v
+    } else {
+        // Too large for u128; rare enough to always take the exact path.
+        return true;
+    };
+    // n + 1 significant digits: 10^n ≤ v < 10^(n+1), and the last is a 5.
+    n < 38 && v >= 10u128.pow(n as u32) && (n == 37 || v < 10u128.pow(n as u32 + 1)) && v % 10 == 5
 }
 
 /// A line-aware token reader over the file's bytes.
