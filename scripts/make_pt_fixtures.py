@@ -3,6 +3,7 @@
 splatkit's Python-free reader (src/io/torch_pt).
 
 Usage: make_pt_fixtures.py OUTDIR
+       make_pt_fixtures.py --check OUTDIR
 
 Writes into OUTDIR (created if needed), with a fixed seed:
   ts_f32_param.pt  dict of nn.Parameter f32 tensors, as Triangle Splatting's
@@ -20,6 +21,10 @@ Writes into OUTDIR (created if needed), with a fixed seed:
                    and "exact" (bit-exact comparison) or a tolerance.
 
 Then: SPLATKIT_PT_FIXTURES=OUTDIR cargo test --test torch_pt
+That test also writes OUTDIR/from_splatkit.pt (splatkit's writer) and
+from_splatkit.json; `--check OUTDIR` loads the .pt with torch.load
+(weights_only=True, so only allow-listed globals are accepted) and compares
+every value bit for bit, exiting 1 on a mismatch.
 
 When torch is not installed this prints so and exits 0 (nothing to check).
 The generated files are not committed.
@@ -32,16 +37,51 @@ import os
 import sys
 
 
+def check(torch, folder):
+    """torch.load splatkit's output and compare it with the values it wrote."""
+    with open(os.path.join(folder, "from_splatkit.json")) as f:
+        want = json.load(f)
+    sd = torch.load(os.path.join(folder, "from_splatkit.pt"), weights_only=True)
+    n = want["n"]
+    shapes = {
+        "triangles_points": (n, 3, 3),
+        "sigma": (n, 1),
+        "opacity": (n, 1),
+        "features_dc": (n, 1, 3),
+        "features_rest": (n, 15, 3),
+        "importance": (n,),
+    }
+    bad = 0
+    for key, shape in shapes.items():
+        t = sd[key]
+        ok = tuple(t.shape) == shape
+        ref = torch.tensor(want[key], dtype=t.dtype).reshape(shape)
+        ok = ok and torch.equal(t, ref)
+        print(f"{key}: {tuple(t.shape)} {t.dtype} {'ok' if ok else 'MISMATCH'}")
+        bad += not ok
+    if sd["active_sh_degree"] != want["active_sh_degree"]:
+        print("active_sh_degree MISMATCH")
+        bad += 1
+    print("torch.load of splatkit's checkpoint:", "ok" if bad == 0 else f"{bad} mismatches")
+    return 1 if bad else 0
+
+
 def main():
-    if len(sys.argv) != 2:
+    args = sys.argv[1:]
+    check_mode = bool(args) and args[0] == "--check"
+    if check_mode:
+        args = args[1:]
+    if len(args) != 1:
         print(__doc__, file=sys.stderr)
         return 2
     try:
         import torch
     except ImportError:
-        print("torch is not installed: no checkpoint fixtures written")
+        print("torch is not installed: no checkpoint fixtures written or checked")
         return 0
-    out = sys.argv[1]
+    if check_mode:
+        return check(torch, args[0])
+    out = args[0]
     os.makedirs(out, exist_ok=True)
     torch.manual_seed(20250603)
     expected = {}

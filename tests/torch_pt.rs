@@ -165,7 +165,9 @@ fn compare(file: &str, what: &str, got: &[f32], want: &[f64], exact: bool, tol: 
 }
 
 /// Checkpoints written by PyTorch itself (see scripts/make_pt_fixtures.py),
-/// compared with the values PyTorch reported. Skips when
+/// compared with the values PyTorch reported; then writes
+/// `from_splatkit.pt` / `.json` into the same folder for the script's
+/// `--check` mode (torch.load of our writer's output). Skips when
 /// `SPLATKIT_PT_FIXTURES` is not set.
 #[test]
 fn pytorch_written_fixtures() {
@@ -221,5 +223,71 @@ fn pytorch_written_fixtures() {
             tol,
         );
         eprintln!("{file}: {} triangles match", soup.len());
+    }
+    // The other direction: a checkpoint written by splatkit, with its values,
+    // for `make_pt_fixtures.py --check DIR` to load with torch.load.
+    let mut s = soup(9, 3);
+    s.active_sh_degree = 2;
+    s.extras.item.push(splatkit::model::attributes::Property {
+        name: "importance".into(),
+        data: splatkit::model::Column::Scalar(splatkit::model::ScalarData::I32(
+            (0..9).map(|i| i * 1000 - 4000).collect(),
+        )),
+    });
+    let mut out = Vec::new();
+    write_triangle_checkpoint(&mut out, &s).unwrap();
+    std::fs::write(dir.join("from_splatkit.pt"), out).unwrap();
+    let values = serde_json::json!({
+        "triangles_points": bytemuck::cast_slice::<_, f32>(&s.triangles),
+        "sigma": s.sigma_raw,
+        "opacity": s.opacity_raw,
+        "features_dc": bytemuck::cast_slice::<_, f32>(&s.sh_dc),
+        "features_rest": s.sh_rest,
+        "active_sh_degree": s.active_sh_degree,
+        "importance": (0..9).map(|i| i * 1000 - 4000).collect::<Vec<i32>>(),
+        "n": s.len(),
+    });
+    std::fs::write(dir.join("from_splatkit.json"), values.to_string()).unwrap();
+    eprintln!("wrote from_splatkit.pt for `make_pt_fixtures.py --check`");
+}
+
+/// Throughput at real scale (1 M triangles, a 236 MB checkpoint): write to a
+/// temporary file, read back, compare. Ignored by default (run with
+/// `cargo test --release --test torch_pt -- --ignored`).
+#[test]
+#[ignore]
+fn large_checkpoint_throughput() {
+    let s = soup(1_000_000, 4);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.pt");
+    let t0 = std::time::Instant::now();
+    splatkit::io::write_output(&path, |w| write_triangle_checkpoint(w, &s)).unwrap();
+    let write_s = t0.elapsed().as_secs_f64();
+    let size = std::fs::metadata(&path).unwrap().len();
+    let t1 = std::time::Instant::now();
+    let back = splatkit::io::torch_pt::read_triangle_checkpoint(&path).unwrap();
+    let read_s = t1.elapsed().as_secs_f64();
+    assert_eq!(back, s);
+    eprintln!(
+        "{} triangles, {:.1} MB: write {:.3} s ({:.0} MB/s), read {:.3} s ({:.0} MB/s)",
+        s.len(),
+        size as f64 / 1e6,
+        write_s,
+        size as f64 / 1e6 / write_s,
+        read_s,
+        size as f64 / 1e6 / read_s
+    );
+    if let Some(keep) = std::env::var_os("SPLATKIT_PT_KEEP_LARGE") {
+        std::fs::copy(&path, keep).unwrap();
+    }
+    // The same content re-saved by torch.save, when such a file is given.
+    if let Some(other) = std::env::var_os("SPLATKIT_PT_TORCH_LARGE") {
+        let t2 = std::time::Instant::now();
+        let theirs = splatkit::io::torch_pt::read_triangle_checkpoint(other.as_ref()).unwrap();
+        eprintln!(
+            "torch-written copy read in {:.3} s",
+            t2.elapsed().as_secs_f64()
+        );
+        assert_eq!(theirs, s);
     }
 }
