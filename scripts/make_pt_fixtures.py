@@ -18,7 +18,8 @@ Writes into OUTDIR (created if needed), with a fixed seed:
   expected.json    for each file, the TriangleSoup the reader must produce:
                    flat lists of triangles (N*9), opacity_raw, sigma_raw,
                    sh_dc (N*3), sh_rest (N*K*3), sh_degree, active_sh_degree,
-                   and "exact" (bit-exact comparison) or a tolerance.
+                   "extras" (per-triangle columns by name), and "exact"
+                   (bit-exact comparison) or a tolerance.
 
 Then: SPLATKIT_PT_FIXTURES=OUTDIR cargo test --test torch_pt
 That test also writes OUTDIR/from_splatkit.pt (splatkit's writer) and
@@ -147,10 +148,13 @@ def main():
             ("features_rest", rest_nc),
             ("opacity", opacity.clone()),
             ("note", "plain tensors re-saved"),
+            # uint16 is pickled with _rebuild_tensor_v3 over an untyped storage.
+            ("visible", torch.arange(n, dtype=torch.int32).to(torch.uint16) * 9000),
         ]
     )
     torch.save(views, os.path.join(out, "ts_views.pt"), pickle_protocol=4)
     expected["ts_views.pt"] = soup_expect(pts, opacity, sigma_view, dc, rest1, 0)
+    expected["ts_views.pt"]["extras"] = {"visible": [float(i * 9000) for i in range(n)]}
 
     # 4. Triangle Splatting+ indexed variant.
     v, t = 6, 5
@@ -170,6 +174,7 @@ def main():
         "active_sh_degree": 3,
         "importance_score": torch.rand(t),
     }
+    importance = flat(plus["importance_score"])
     torch.save(plus, os.path.join(out, "ts_plus.pt"))
     # The documented conversion, computed independently in float64.
     floor = 0.9999
@@ -190,6 +195,7 @@ def main():
         exact=False,
         tol=1e-5,
     )
+    e["extras"] = {"importance_score": importance}
     expected["ts_plus.pt"] = e
 
     with open(os.path.join(out, "expected.json"), "w") as f:

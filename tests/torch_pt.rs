@@ -222,6 +222,30 @@ fn pytorch_written_fixtures() {
             exact,
             tol,
         );
+        let extras = e.get("extras").and_then(|x| x.as_object());
+        for (name, want) in extras.into_iter().flatten() {
+            let col = soup
+                .extras
+                .item
+                .iter()
+                .find(|p| &p.name == name)
+                .unwrap_or_else(|| panic!("{file}: extra {name} missing"));
+            let data = col.data.as_scalar().unwrap();
+            let want: Vec<f64> = want
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect();
+            let got: Vec<f64> = (0..data.len()).map(|i| data.get_f64(i)).collect();
+            // Integers and f32 values: exact in f64.
+            assert_eq!(got, want, "{file}: extra {name}");
+        }
+        // Truncated copies of a PyTorch-written file are all errors.
+        let bytes = std::fs::read(dir.join(file)).unwrap();
+        for len in 0..bytes.len() {
+            assert!(parse_triangle_checkpoint("cut.pt", &bytes[..len]).is_err());
+        }
         eprintln!("{file}: {} triangles match", soup.len());
     }
     // The other direction: a checkpoint written by splatkit, with its values,

@@ -366,6 +366,24 @@ impl<'a> TorchCheckpoint<'a> {
             DType::I64 => self.gather(key, t, true, |b| {
                 i64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])
             })?,
+            DType::U16 => {
+                self.gather(key, t, false, |b| u16::from_le_bytes([b[0], b[1]]) as i64)?
+            }
+            DType::U32 => self.gather(key, t, false, |b| {
+                u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as i64
+            })?,
+            DType::U64 => {
+                let v = self.gather(key, t, true, |b| {
+                    u64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])
+                })?;
+                let mut out = Vec::with_capacity(v.len());
+                for x in v {
+                    out.push(i64::try_from(x).map_err(|_| {
+                        self.err(key, format!("uint64 value {x} does not fit in int64"))
+                    })?);
+                }
+                out
+            }
             other => {
                 return Err(self.err(
                     key,
@@ -378,7 +396,8 @@ impl<'a> TorchCheckpoint<'a> {
 
     /// A per-item column for `key` when it is a numeric tensor of shape
     /// `[n]` or `[n, 1]`: f16/bf16/f32 → F32, f64 → F64, u8/bool → U8,
-    /// i8 → I8, i16 → I16, i32 → I32, i64 → I32 when every value fits, else F64.
+    /// i8 → I8, i16 → I16, u16 → U16, i32 → I32, u32 → U32, i64/u64 → I32
+    /// when every value fits, else F64.
     fn item_column(&self, key: &str, n: usize) -> Result<Option<ScalarData>> {
         let Some(PtValue::Tensor(t)) = self.get(key) else {
             return Ok(None);
@@ -400,7 +419,13 @@ impl<'a> TorchCheckpoint<'a> {
             DType::I32 => ScalarData::I32(self.gather(key, t, true, |b| {
                 i32::from_le_bytes([b[0], b[1], b[2], b[3]])
             })?),
-            DType::I64 => {
+            DType::U16 => {
+                ScalarData::U16(self.gather(key, t, true, |b| u16::from_le_bytes([b[0], b[1]]))?)
+            }
+            DType::U32 => ScalarData::U32(self.gather(key, t, true, |b| {
+                u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            })?),
+            DType::I64 | DType::U64 => {
                 let v = self.tensor_i64(key)?.1;
                 if v.iter().all(|&x| i32::try_from(x).is_ok()) {
                     ScalarData::I32(v.into_iter().map(|x| x as i32).collect())

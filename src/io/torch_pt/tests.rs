@@ -1008,3 +1008,37 @@ fn many_extras_use_long_memo_indices() {
     assert_bit_identical(&soup, &back);
     assert_eq!(back.extras.item, soup.extras.item);
 }
+
+/// `_rebuild_tensor_v3` (uint16/32/64 since torch 2.3): an untyped byte
+/// storage viewed with an explicit dtype; and a storage type the reader does
+/// not know (complex) leaves its key opaque without failing the read.
+#[test]
+fn rebuild_tensor_v3_and_unknown_storage_types() {
+    let mut r = Raw::default();
+    r.b(&[0x80, 2]).b(b"}(").s("u");
+    r.g("torch._utils", "_rebuild_tensor_v3").b(b"(");
+    pid(&mut r, "UntypedStorage", "0", 10); // 10 bytes = 5 uint16
+    r.i(1).tuple(&[2, 2]).tuple(&[1, 2]).b(&[0x89]);
+    r.g("collections", "OrderedDict").b(b")R");
+    r.g("torch", "uint16").b(b"tR");
+    r.s("z")
+        .tensor(|r| pid(r, "ComplexFloatStorage", "1", 2), 0, &[2], &[1]);
+    r.b(b"u.");
+    let vals: Vec<u8> = [1u16, 2, 3, 65535, 5]
+        .iter()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    let bytes = archive(&[
+        ("a/data.pkl", &r.0),
+        ("a/data/0", &vals),
+        ("a/data/1", &[0u8; 16]),
+    ]);
+    let ck = TorchCheckpoint::parse("v3.pt", &bytes).unwrap();
+    let t = ck.tensor("u").unwrap();
+    assert_eq!((t.dtype, t.shape.clone()), (DType::U16, vec![2, 2]));
+    // Offset 1, transposed strides: [[2, 3], [65535, 5]] read column-major.
+    assert_eq!(ck.tensor_i64("u").unwrap().1, [2, 65535, 3, 5]);
+    assert!(matches!(ck.get("z"), Some(PtValue::Other(_))));
+    let e = ck.tensor_f32("z").unwrap_err();
+    assert!(e.to_string().contains("key \"z\": expected a tensor"), "{e}");
+}
