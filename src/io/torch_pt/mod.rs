@@ -186,8 +186,18 @@ impl<'a> TorchCheckpoint<'a> {
         }
     }
 
+    /// The first keys of the file, for messages.
     fn key_list(&self) -> String {
-        let keys: Vec<&str> = self.entries.iter().map(|(k, _)| k.as_str()).collect();
+        const SHOWN: usize = 12;
+        let mut keys: Vec<&str> = self
+            .entries
+            .iter()
+            .take(SHOWN)
+            .map(|(k, _)| k.as_str())
+            .collect();
+        if self.entries.len() > SHOWN {
+            keys.push("...");
+        }
         keys.join(", ")
     }
 
