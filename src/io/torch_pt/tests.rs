@@ -1040,5 +1040,8 @@ fn rebuild_tensor_v3_and_unknown_storage_types() {
     assert_eq!(ck.tensor_i64("u").unwrap().1, [2, 65535, 3, 5]);
     assert!(matches!(ck.get("z"), Some(PtValue::Other(_))));
     let e = ck.tensor_f32("z").unwrap_err();
-    assert!(e.to_string().contains("key \"z\": expected a tensor"), "{e}");
+    assert!(
+        e.to_string().contains("key \"z\": expected a tensor"),
+        "{e}"
+    );
 }
