@@ -186,8 +186,18 @@ impl<'a> TorchCheckpoint<'a> {
         }
     }
 
+    /// The first keys of the file, for messages.
     fn key_list(&self) -> String {
-        let keys: Vec<&str> = self.entries.iter().map(|(k, _)| k.as_str()).collect();
+        const SHOWN: usize = 12;
+        let mut keys: Vec<&str> = self
+            .entries
+            .iter()
+            .take(SHOWN)
+            .map(|(k, _)| k.as_str())
+            .collect();
+        if self.entries.len() > SHOWN {
+            keys.push("...");
+        }
         keys.join(", ")
     }
 
@@ -250,8 +260,16 @@ impl<'a> TorchCheckpoint<'a> {
     }
 
     /// The values of `t` in row-major order, each decoded from its
-    /// little-endian bytes by `conv`.
-    fn gather<T, F: Fn(&[u8]) -> T>(&self, key: &str, t: &TensorInfo, conv: F) -> Result<Vec<T>> {
+    /// little-endian bytes by `conv`. `native` says that those bytes are
+    /// already `T`'s representation (no conversion), which lets contiguous
+    /// views on little-endian hosts be copied in one go.
+    fn gather<T: bytemuck::Pod, F: Fn(&[u8]) -> T>(
+        &self,
+        key: &str,
+        t: &TensorInfo,
+        native: bool,
+        conv: F,
+    ) -> Result<Vec<T>> {
         let bytes = self.storage(key, t)?;
         let es = t.dtype.size();
         let numel = t.numel();
@@ -282,6 +300,10 @@ impl<'a> TorchCheckpoint<'a> {
         let base = t.offset as usize * es;
         if contiguous {
             let src = &bytes[base..base + numel * es];
+            if native && !big && cfg!(target_endian = "little") && es == size_of::<T>() {
+                // Byte copy into a fresh, aligned Vec<T>.
+                return Ok(bytemuck::pod_collect_to_vec(src));
+            }
             out.extend(src.chunks_exact(es).map(decode));
             return Ok(out);
         }
@@ -313,14 +335,16 @@ impl<'a> TorchCheckpoint<'a> {
     pub fn tensor_f32(&self, key: &str) -> Result<(Vec<usize>, Vec<f32>)> {
         let t = self.tensor(key)?;
         let v = match t.dtype {
-            DType::F32 => self.gather(key, t, |b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))?,
-            DType::F16 => self.gather(key, t, |b| {
+            DType::F32 => self.gather(key, t, true, |b| {
+                f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            })?,
+            DType::F16 => self.gather(key, t, false, |b| {
                 half::f16::from_bits(u16::from_le_bytes([b[0], b[1]])).to_f32()
             })?,
-            DType::BF16 => self.gather(key, t, |b| {
+            DType::BF16 => self.gather(key, t, false, |b| {
                 half::bf16::from_bits(u16::from_le_bytes([b[0], b[1]])).to_f32()
             })?,
-            DType::F64 => self.gather(key, t, |b| {
+            DType::F64 => self.gather(key, t, false, |b| {
                 f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]) as f32
             })?,
             other => {
@@ -341,15 +365,35 @@ impl<'a> TorchCheckpoint<'a> {
     pub fn tensor_i64(&self, key: &str) -> Result<(Vec<usize>, Vec<i64>)> {
         let t = self.tensor(key)?;
         let v = match t.dtype {
-            DType::U8 | DType::Bool => self.gather(key, t, |b| b[0] as i64)?,
-            DType::I8 => self.gather(key, t, |b| b[0] as i8 as i64)?,
-            DType::I16 => self.gather(key, t, |b| i16::from_le_bytes([b[0], b[1]]) as i64)?,
-            DType::I32 => self.gather(key, t, |b| {
+            DType::U8 | DType::Bool => self.gather(key, t, false, |b| b[0] as i64)?,
+            DType::I8 => self.gather(key, t, false, |b| b[0] as i8 as i64)?,
+            DType::I16 => {
+                self.gather(key, t, false, |b| i16::from_le_bytes([b[0], b[1]]) as i64)?
+            }
+            DType::I32 => self.gather(key, t, false, |b| {
                 i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as i64
             })?,
-            DType::I64 => self.gather(key, t, |b| {
+            DType::I64 => self.gather(key, t, true, |b| {
                 i64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])
             })?,
+            DType::U16 => {
+                self.gather(key, t, false, |b| u16::from_le_bytes([b[0], b[1]]) as i64)?
+            }
+            DType::U32 => self.gather(key, t, false, |b| {
+                u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as i64
+            })?,
+            DType::U64 => {
+                let v = self.gather(key, t, true, |b| {
+                    u64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])
+                })?;
+                let mut out = Vec::with_capacity(v.len());
+                for x in v {
+                    out.push(i64::try_from(x).map_err(|_| {
+                        self.err(key, format!("uint64 value {x} does not fit in int64"))
+                    })?);
+                }
+                out
+            }
             other => {
                 return Err(self.err(
                     key,
@@ -362,7 +406,8 @@ impl<'a> TorchCheckpoint<'a> {
 
     /// A per-item column for `key` when it is a numeric tensor of shape
     /// `[n]` or `[n, 1]`: f16/bf16/f32 → F32, f64 → F64, u8/bool → U8,
-    /// i8 → I8, i16 → I16, i32 → I32, i64 → I32 when every value fits, else F64.
+    /// i8 → I8, i16 → I16, u16 → U16, i32 → I32, u32 → U32, i64/u64 → I32
+    /// when every value fits, else F64.
     fn item_column(&self, key: &str, n: usize) -> Result<Option<ScalarData>> {
         let Some(PtValue::Tensor(t)) = self.get(key) else {
             return Ok(None);
@@ -373,18 +418,24 @@ impl<'a> TorchCheckpoint<'a> {
         }
         Ok(Some(match t.dtype {
             DType::F16 | DType::BF16 | DType::F32 => ScalarData::F32(self.tensor_f32(key)?.1),
-            DType::F64 => ScalarData::F64(self.gather(key, t, |b| {
+            DType::F64 => ScalarData::F64(self.gather(key, t, true, |b| {
                 f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])
             })?),
-            DType::U8 | DType::Bool => ScalarData::U8(self.gather(key, t, |b| b[0])?),
-            DType::I8 => ScalarData::I8(self.gather(key, t, |b| b[0] as i8)?),
+            DType::U8 | DType::Bool => ScalarData::U8(self.gather(key, t, true, |b| b[0])?),
+            DType::I8 => ScalarData::I8(self.gather(key, t, true, |b| b[0] as i8)?),
             DType::I16 => {
-                ScalarData::I16(self.gather(key, t, |b| i16::from_le_bytes([b[0], b[1]]))?)
+                ScalarData::I16(self.gather(key, t, true, |b| i16::from_le_bytes([b[0], b[1]]))?)
             }
-            DType::I32 => ScalarData::I32(
-                self.gather(key, t, |b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))?,
-            ),
-            DType::I64 => {
+            DType::I32 => ScalarData::I32(self.gather(key, t, true, |b| {
+                i32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            })?),
+            DType::U16 => {
+                ScalarData::U16(self.gather(key, t, true, |b| u16::from_le_bytes([b[0], b[1]]))?)
+            }
+            DType::U32 => ScalarData::U32(self.gather(key, t, true, |b| {
+                u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            })?),
+            DType::I64 | DType::U64 => {
                 let v = self.tensor_i64(key)?.1;
                 if v.iter().all(|&x| i32::try_from(x).is_ok()) {
                     ScalarData::I32(v.into_iter().map(|x| x as i32).collect())
@@ -569,15 +620,13 @@ fn plain_soup(ck: &TorchCheckpoint) -> Result<TriangleSoup> {
     let sigma_raw = per_item(ck, "sigma", n, "one raw sigma per triangle")?;
     let (dc, sh_rest, sh_degree) = sh_features(ck, n, "per triangle")?;
     let mut soup = TriangleSoup {
-        triangles: pts
-            .chunks_exact(9)
-            .map(|c| [[c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]]])
-            .collect(),
+        // Lengths are multiples of 9 and 3 (shapes checked above).
+        triangles: bytemuck::pod_collect_to_vec(&pts),
         opacity_raw,
         sigma_raw,
         sh_degree,
         active_sh_degree: active_degree(ck, sh_degree)?,
-        sh_dc: dc.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        sh_dc: bytemuck::pod_collect_to_vec(&dc),
         sh_rest,
         ..Default::default()
     };

@@ -45,6 +45,12 @@ pub enum DType {
     I32,
     /// `torch.int64`, `LongStorage`.
     I64,
+    /// `torch.uint16` (pickled as an `UntypedStorage` + `_rebuild_tensor_v3`).
+    U16,
+    /// `torch.uint32` (as `U16`).
+    U32,
+    /// `torch.uint64` (as `U16`).
+    U64,
     /// `torch.bool`, `BoolStorage` (one byte per value).
     Bool,
 }
@@ -54,9 +60,9 @@ impl DType {
     pub fn size(self) -> usize {
         match self {
             DType::U8 | DType::I8 | DType::Bool => 1,
-            DType::F16 | DType::BF16 | DType::I16 => 2,
-            DType::F32 | DType::I32 => 4,
-            DType::F64 | DType::I64 => 8,
+            DType::F16 | DType::BF16 | DType::I16 | DType::U16 => 2,
+            DType::F32 | DType::I32 | DType::U32 => 4,
+            DType::F64 | DType::I64 | DType::U64 => 8,
         }
     }
 
@@ -66,7 +72,8 @@ impl DType {
     }
 
     /// The legacy storage class name (`FloatStorage`, ...), as pickled by
-    /// `torch.save` in persistent ids.
+    /// `torch.save` in persistent ids; `UntypedStorage` for the unsigned
+    /// types above 8 bits, which have no typed class.
     pub fn storage_class(self) -> &'static str {
         match self {
             DType::F16 => "HalfStorage",
@@ -79,6 +86,7 @@ impl DType {
             DType::I32 => "IntStorage",
             DType::I64 => "LongStorage",
             DType::Bool => "BoolStorage",
+            DType::U16 | DType::U32 | DType::U64 => "UntypedStorage",
         }
     }
 
@@ -95,6 +103,9 @@ impl DType {
             DType::I32 => "int32",
             DType::I64 => "int64",
             DType::Bool => "bool",
+            DType::U16 => "uint16",
+            DType::U32 => "uint32",
+            DType::U64 => "uint64",
         }
     }
 
@@ -126,6 +137,9 @@ impl DType {
             "int32" | "int" => DType::I32,
             "int64" | "long" => DType::I64,
             "bool" => DType::Bool,
+            "uint16" => DType::U16,
+            "uint32" => DType::U32,
+            "uint64" => DType::U64,
             _ => return None,
         })
     }
@@ -155,6 +169,9 @@ pub(crate) struct TensorRef {
 pub(crate) enum Func {
     /// `torch._utils._rebuild_tensor_v2` and `_rebuild_tensor`.
     RebuildTensor,
+    /// `torch._utils._rebuild_tensor_v3`: an untyped (byte) storage viewed
+    /// with the dtype given as 7th argument.
+    RebuildTensorV3,
     /// `torch._utils._rebuild_parameter` and `_rebuild_parameter_with_state`.
     RebuildParameter,
     /// `collections.OrderedDict`.
@@ -305,6 +322,7 @@ fn resolve_global(module: &str, name: &str) -> Value {
         ("torch._utils", "_rebuild_tensor_v2" | "_rebuild_tensor") => {
             Value::Func(Func::RebuildTensor)
         }
+        ("torch._utils", "_rebuild_tensor_v3") => Value::Func(Func::RebuildTensorV3),
         ("torch._utils", "_rebuild_parameter" | "_rebuild_parameter_with_state") => {
             Value::Func(Func::RebuildParameter)
         }
@@ -354,18 +372,49 @@ fn call(func: &Value, args: &Value) -> Result<Value, String> {
     };
     let a = &args.items;
     match func {
-        Value::Func(Func::RebuildTensor) => {
-            if a.len() < 4 {
+        Value::Func(f @ (Func::RebuildTensor | Func::RebuildTensorV3)) => {
+            let v3 = *f == Func::RebuildTensorV3;
+            let name = if v3 {
+                "_rebuild_tensor_v3"
+            } else {
+                "_rebuild_tensor_v2"
+            };
+            let need = if v3 { 7 } else { 4 };
+            if a.len() < need {
                 return Err(format!(
-                    "_rebuild_tensor_v2 needs at least 4 arguments, found {}",
+                    "{name} needs at least {need} arguments, found {}",
                     a.len()
                 ));
             }
-            let Value::Storage(storage) = &a[0] else {
-                return Err(format!(
-                    "_rebuild_tensor_v2: first argument must be a storage, found {}",
-                    a[0].kind()
-                ));
+            let storage = match &a[0] {
+                Value::Storage(s) => s.clone(),
+                // A storage of a type we do not read: the tensor stays opaque.
+                Value::Opaque(s) => return Ok(Value::Opaque(format!("tensor on {s}").into())),
+                other => {
+                    return Err(format!(
+                        "{name}: first argument must be a storage, found {}",
+                        other.kind()
+                    ));
+                }
+            };
+            let storage = if v3 {
+                // The view is in elements of the given dtype over bytes.
+                let Value::Dtype(d) = a[6] else {
+                    return Ok(Value::Opaque(format!("tensor of {}", a[6].kind()).into()));
+                };
+                if storage.dtype != DType::U8 {
+                    return Err(format!(
+                        "{name}: storage must be untyped, found {}",
+                        storage.dtype.torch_name()
+                    ));
+                }
+                Rc::new(StorageRef {
+                    dtype: d,
+                    key: storage.key.clone(),
+                    numel: storage.numel / d.size() as u64,
+                })
+            } else {
+                storage
             };
             let offset = as_index(&a[1], "tensor storage offset")?;
             let size = as_index_tuple(&a[2], "tensor size")?;
@@ -376,14 +425,14 @@ fn call(func: &Value, args: &Value) -> Result<Value, String> {
                 ));
             }
             Ok(Value::Tensor(Rc::new(TensorRef {
-                storage: storage.clone(),
+                storage,
                 offset,
                 size,
                 stride,
             })))
         }
         Value::Func(Func::RebuildParameter) => match a.first() {
-            Some(t @ Value::Tensor(_)) => Ok(t.clone()),
+            Some(t @ (Value::Tensor(_) | Value::Opaque(_))) => Ok(t.clone()),
             Some(other) => Err(format!(
                 "_rebuild_parameter: first argument must be a tensor, found {}",
                 other.kind()
@@ -422,6 +471,9 @@ fn persistent_load(pid: &Value) -> Result<Value, String> {
     }
     let dtype = match &a[1] {
         Value::Dtype(d) => *d,
+        // e.g. torch.ComplexFloatStorage: kept opaque so that other keys
+        // still read.
+        Value::Opaque(name) => return Ok(Value::Opaque(format!("storage {name}").into())),
         other => return Err(format!("unsupported storage type {}", other.kind())),
     };
     let key = match &a[2] {
