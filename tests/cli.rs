@@ -20,7 +20,9 @@ fn soup_ply(s: &TriangleSoup) -> Vec<u8> {
 
 #[test]
 fn info_counts_the_bunny() {
-    let Some(p) = splatkit::testing::shared_data("scanned-meshes/bun_zipper.ply") else { return };
+    let Some(p) = splatkit::testing::shared_data("scanned-meshes/bun_zipper.ply") else {
+        return;
+    };
     bin("info")
         .arg(&p)
         .assert()
@@ -28,7 +30,12 @@ fn info_counts_the_bunny() {
         .stdout(predicate::str::contains("vertices:   35,947"))
         .stdout(predicate::str::contains("faces:      69,451"))
         .stdout(predicate::str::contains("element material 1"));
-    let out = bin("splatkit").arg("info").arg(&p).arg("--json").output().unwrap();
+    let out = bin("splatkit")
+        .arg("info")
+        .arg(&p)
+        .arg("--json")
+        .output()
+        .unwrap();
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v[0]["vertices"], 35_947);
@@ -41,14 +48,21 @@ fn prune_pipes_into_export_off() {
     let (soup, surface) = demo_soup(3, 24);
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("scene.pt");
-    splatkit::io::write_output(&input, |w| splatkit::io::torch_pt::write_triangle_checkpoint(w, &soup)).unwrap();
+    splatkit::io::write_output(&input, |w| {
+        splatkit::io::torch_pt::write_triangle_checkpoint(w, &soup)
+    })
+    .unwrap();
     // prune-triangles in.pt -o - | export-off - -o out.off
     let pruned = bin("prune-triangles")
         .arg(&input)
         .args(["--game-engine", "-o", "-", "--quiet"])
         .output()
         .unwrap();
-    assert!(pruned.status.success(), "{}", String::from_utf8_lossy(&pruned.stderr));
+    assert!(
+        pruned.status.success(),
+        "{}",
+        String::from_utf8_lossy(&pruned.stderr)
+    );
     assert!(pruned.stdout.starts_with(b"ply\n"));
     let off = dir.path().join("out.off");
     bin("export-off")
@@ -84,8 +98,16 @@ fn export_off_matches_the_reference_layout_byte_for_byte() {
         sh_rest: vec![],
         extras: Extras::default(),
     };
-    let out = bin("export-off").args(["-", "-o", "-"]).write_stdin(soup_ply(&soup)).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = bin("export-off")
+        .args(["-", "-o", "-"])
+        .write_stdin(soup_ply(&soup))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let expected = "COFF\n4 2 0\n-1.0 2.0 0.10000000149011612\n0.0 0.0 0.0\n0.0 1.0 0.0\n1.0 0.0 0.0\n\
                     3 1 3 2 199 127 0 255\n3 3 2 0 163 255 127 255\n";
     assert_eq!(String::from_utf8(out.stdout).unwrap(), expected);
@@ -99,15 +121,21 @@ fn export_off_other_formats_round_trip_geometry() {
     std::fs::write(&input, soup_ply(&soup)).unwrap();
     for ext in ["glb", "gltf", "ply", "obj", "off"] {
         let out = dir.path().join(format!("o.{ext}"));
-        bin("export-off").arg(&input).arg("-o").arg(&out).args(["--no-dedup", "-q"]).assert().success();
+        bin("export-off")
+            .arg(&input)
+            .arg("-o")
+            .arg(&out)
+            .args(["--no-dedup", "-q"])
+            .assert()
+            .success();
         let m = splatkit::io::any::load_mesh(&out).unwrap();
         assert_eq!(m.faces.len(), soup.len(), "{ext}");
         // With --no-dedup every corner is its own vertex, in triangle order
         // (OBJ/glTF may un-share further but never reorder corners).
         let corner = |f: usize, k: usize| m.vertices[m.faces[f][k] as usize];
         for (t, tri) in soup.triangles.iter().enumerate() {
-            for k in 0..3 {
-                assert_eq!(corner(t, k), tri[k], "{ext} triangle {t}");
+            for (k, v) in tri.iter().enumerate() {
+                assert_eq!(corner(t, k), *v, "{ext} triangle {t}");
             }
         }
     }
@@ -117,16 +145,26 @@ fn export_off_other_formats_round_trip_geometry() {
 fn errors_name_the_file_and_exit_1_usage_errors_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.ply");
-    std::fs::write(&bad, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n2\n").unwrap();
+    std::fs::write(
+        &bad,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n2\n",
+    )
+    .unwrap();
     bin("info")
         .arg(&bad)
         .assert()
         .code(1)
         .stderr(predicate::str::contains("bad.ply").and(predicate::str::contains("truncated")));
-    bin("prune-triangles").arg("--no-such-flag").assert().code(2);
-    bin("export-off").arg(dir.path().join("missing.pt")).args(["-o", "x.off"]).assert().code(1).stderr(
-        predicate::str::contains("missing.pt"),
-    );
+    bin("prune-triangles")
+        .arg("--no-such-flag")
+        .assert()
+        .code(2);
+    bin("export-off")
+        .arg(dir.path().join("missing.pt"))
+        .args(["-o", "x.off"])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("missing.pt"));
 }
 
 #[test]
@@ -136,7 +174,12 @@ fn failed_runs_leave_outputs_untouched() {
     std::fs::write(&out, "precious").unwrap();
     let bad = dir.path().join("bad.ply");
     std::fs::write(&bad, b"ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nproperty float opacity\nproperty float sigma\nproperty float f_dc_0\nproperty float f_dc_1\nproperty float f_dc_2\nend_header\n\x01\x02").unwrap();
-    bin("export-off").arg(&bad).arg("-o").arg(&out).assert().code(1);
+    bin("export-off")
+        .arg(&bad)
+        .arg("-o")
+        .arg(&out)
+        .assert()
+        .code(1);
     assert_eq!(std::fs::read_to_string(&out).unwrap(), "precious");
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
@@ -149,10 +192,18 @@ fn failed_runs_leave_outputs_untouched() {
 #[test]
 fn help_has_examples_everywhere() {
     for b in ["info", "prune-triangles", "export-off"] {
-        bin(b).arg("--help").assert().success().stdout(predicate::str::contains("Examples:"));
+        bin(b)
+            .arg("--help")
+            .assert()
+            .success()
+            .stdout(predicate::str::contains("Examples:"));
     }
     for sub in ["info", "prune-triangles", "export-off", "demo"] {
-        bin("splatkit").args([sub, "--help"]).assert().success().stdout(predicate::str::contains("Examples:"));
+        bin("splatkit")
+            .args([sub, "--help"])
+            .assert()
+            .success()
+            .stdout(predicate::str::contains("Examples:"));
     }
 }
 
@@ -164,10 +215,20 @@ fn demo_runs_end_to_end() {
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["prune"]["kept"], v["surface_triangles"]);
-    for f in ["scene.pt", "scene_soup.ply", "solid.pt", "solid.off", "solid.glb"] {
+    for f in [
+        "scene.pt",
+        "scene_soup.ply",
+        "solid.pt",
+        "solid.off",
+        "solid.glb",
+    ] {
         assert!(dir.path().join(f).exists(), "{f}");
     }
 }

@@ -148,8 +148,8 @@ proptest! {
             prop_assert_eq!(back.vertices.len(), 3 * nf);
             for (i, f) in mesh.faces.iter().enumerate() {
                 prop_assert_eq!(back.faces[i], [3 * i as u32, 3 * i as u32 + 1, 3 * i as u32 + 2]);
-                for k in 0..3 {
-                    let v = f[k] as usize;
+                for (k, &fk) in f.iter().enumerate() {
+                    let v = fk as usize;
                     prop_assert!(same(&[back.vertices[3 * i + k]], &[mesh.vertices[v]]));
                     let fc = mesh.face_colors.as_ref().unwrap()[i];
                     prop_assert_eq!(
@@ -181,8 +181,8 @@ proptest! {
                 prop_assert_eq!(back.vertices.len(), 3 * nf);
                 for (i, f) in mesh.faces.iter().enumerate() {
                     prop_assert_eq!(back.faces[i], [3 * i as u32, 3 * i as u32 + 1, 3 * i as u32 + 2]);
-                    for k in 0..3 {
-                        let v = f[k] as usize;
+                    for (k, &fk) in f.iter().enumerate() {
+                        let v = fk as usize;
                         prop_assert_eq!(
                             back.vertices[3 * i + k].map(f32::to_bits),
                             mesh.vertices[v].map(f32::to_bits)

@@ -7,10 +7,15 @@ use crate::ops::{demo, export_off, info, prune_triangles};
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
 #[derive(Parser, Debug)]
-#[command(name = "splatkit", version, propagate_version = true, after_help = "Examples:
+#[command(
+    name = "splatkit",
+    version,
+    propagate_version = true,
+    after_help = "Examples:
   splatkit demo -o demo-out                 # the built-in demo scene, end to end
   splatkit info scene.ply
-  splatkit prune-triangles scene.pt --game-engine -o - | splatkit export-off - -o scene.off")]
+  splatkit prune-triangles scene.pt --game-engine -o - | splatkit export-off - -o scene.off"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

@@ -33,7 +33,9 @@ impl Common {
                 anyhow::bail!("--threads must be at least 1");
             }
             // Only the first pool configuration of a process takes effect.
-            let _ = rayon::ThreadPoolBuilder::new().num_threads(n).build_global();
+            let _ = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global();
         }
         Ok(())
     }

@@ -85,7 +85,11 @@ fn parse_mesh_as(f: FileFormat, name: &str, bytes: &[u8]) -> Result<Mesh> {
 
 /// Output format for `path`: `explicit` if given, else the extension, else
 /// `default` (used for stdout).
-pub fn output_format(path: &Path, explicit: Option<FileFormat>, default: FileFormat) -> Result<FileFormat> {
+pub fn output_format(
+    path: &Path,
+    explicit: Option<FileFormat>,
+    default: FileFormat,
+) -> Result<FileFormat> {
     if let Some(f) = explicit {
         return Ok(f);
     }

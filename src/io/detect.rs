@@ -60,9 +60,15 @@ impl FileFormat {
             return Some(FileFormat::Glb);
         }
         let text = std::str::from_utf8(&bytes[..bytes.len().min(512)]).unwrap_or("");
-        let first = text.lines().map(str::trim).find(|l| !l.is_empty() && !l.starts_with('#'));
+        let first = text
+            .lines()
+            .map(str::trim)
+            .find(|l| !l.is_empty() && !l.starts_with('#'));
         if let Some(l) = first
-            && matches!(l.split_whitespace().next(), Some("OFF" | "COFF" | "NOFF" | "CNOFF" | "NCOFF"))
+            && matches!(
+                l.split_whitespace().next(),
+                Some("OFF" | "COFF" | "NOFF" | "CNOFF" | "NCOFF")
+            )
         {
             return Some(FileFormat::Off);
         }

@@ -145,20 +145,25 @@ impl ScalarData {
 
     /// Value `i` widened to f64 (exact for every PLY type).
     pub fn get_f64(&self, i: usize) -> f64 {
-        with_scalars!(self, v => v[i] as f64)
+        #[allow(clippy::unnecessary_cast)]
+        let x = with_scalars!(self, v => v[i] as f64);
+        x
     }
 
     /// The column converted to f32 (a copy; lossy for f64 and large ints).
     pub fn to_f32(&self) -> Vec<f32> {
         match self {
             ScalarData::F32(v) => v.clone(),
+            #[allow(clippy::unnecessary_cast)]
             other => with_scalars!(other, v => v.iter().map(|&x| x as f32).collect()),
         }
     }
 
     /// The column converted to f64.
     pub fn to_f64(&self) -> Vec<f64> {
-        with_scalars!(self, v => v.iter().map(|&x| x as f64).collect())
+        #[allow(clippy::unnecessary_cast)]
+        let v = with_scalars!(self, v => v.iter().map(|&x| x as f64).collect());
+        v
     }
 
     /// Keeps the rows whose `keep` flag is set.

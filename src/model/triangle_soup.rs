@@ -63,7 +63,11 @@ impl TriangleSoup {
     /// 0 for the solid marker raw = −∞ ([`SOLID_SIGMA_RAW`]).
     pub fn sigma(&self, i: usize) -> f32 {
         let raw = self.sigma_raw[i];
-        if raw == f32::NEG_INFINITY { 0.0 } else { 0.01 + raw.exp() }
+        if raw == f32::NEG_INFINITY {
+            0.0
+        } else {
+            0.01 + raw.exp()
+        }
     }
 
     /// Centroid of triangle `i`.

@@ -45,17 +45,28 @@ pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
         extras: Extras::default(),
         ..Default::default()
     };
-    let push = |s: &mut TriangleSoup, t: [[f32; 3]; 3], opacity: f32, sigma: f32, rgb: [f32; 3], rng: &mut rand_pcg::Pcg64Mcg| {
+    let push = |s: &mut TriangleSoup,
+                t: [[f32; 3]; 3],
+                opacity: f32,
+                sigma: f32,
+                rgb: [f32; 3],
+                rng: &mut rand_pcg::Pcg64Mcg| {
         s.triangles.push(t);
         s.opacity_raw.push(logit(opacity));
         s.sigma_raw.push((sigma - 0.01).ln());
         s.sh_dc.push(rgb.map(splatkit_render::sh::rgb_to_sh));
         // Mild view dependence in the higher bands.
-        s.sh_rest.extend((0..45).map(|_| rng.random_range(-0.05f32..0.05)));
+        s.sh_rest
+            .extend((0..45).map(|_| rng.random_range(-0.05f32..0.05)));
     };
     for i in 0..nu {
         for j in 0..nv {
-            let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1));
+            let (a, b, c, d) = (
+                point(i, j),
+                point(i + 1, j),
+                point(i + 1, j + 1),
+                point(i, j + 1),
+            );
             let hue = i as f32 / nu as f32;
             let rgb = [
                 0.5 + 0.4 * (hue * std::f32::consts::TAU).cos(),
@@ -98,26 +109,42 @@ pub struct DemoArgs {
 /// Runs the demo.
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("creating {}", args.output.display()))?;
     let out = |f: &str| -> PathBuf { args.output.join(f) };
     let (soup, surface) = demo_soup(args.seed, args.segments);
     let pb = args.common.progress(5, "demo");
-    write_output(&out("scene.pt"), |w| torch_pt::write_triangle_checkpoint(w, &soup))?;
-    write_output(&out("scene_soup.ply"), |w| write_soup(w, &soup, Format::BinaryLittleEndian))?;
+    write_output(&out("scene.pt"), |w| {
+        torch_pt::write_triangle_checkpoint(w, &soup)
+    })?;
+    write_output(&out("scene_soup.ply"), |w| {
+        write_soup(w, &soup, Format::BinaryLittleEndian)
+    })?;
     pb.inc(1);
-    let game = PruneParams { min_opacity: Some(0.7), max_sigma: Some(1.0), max_count: None, solidify: true };
+    let game = PruneParams {
+        min_opacity: Some(0.7),
+        max_sigma: Some(1.0),
+        max_count: None,
+        solidify: true,
+    };
     let (solid, report) = prune(&soup, &game);
     ensure!(
         report.kept == surface,
         "demo self-check failed: pruning kept {} triangles, the torus has {surface}",
         report.kept
     );
-    write_output(&out("solid.pt"), |w| torch_pt::write_triangle_checkpoint(w, &solid))?;
+    write_output(&out("solid.pt"), |w| {
+        torch_pt::write_triangle_checkpoint(w, &solid)
+    })?;
     pb.inc(1);
     let mesh = soup_to_mesh(&solid, &ExportParams::default());
-    write_output(&out("solid.off"), |w| write_off(w, &mesh, &OffWriteOptions::triangle_splatting()))?;
+    write_output(&out("solid.off"), |w| {
+        write_off(w, &mesh, &OffWriteOptions::triangle_splatting())
+    })?;
     pb.inc(1);
-    write_output(&out("solid.glb"), |w| write_gltf(w, &mesh, &GltfWriteOptions::default()))?;
+    write_output(&out("solid.glb"), |w| {
+        write_gltf(w, &mesh, &GltfWriteOptions::default())
+    })?;
     pb.inc(1);
     let infos: Vec<_> = ["scene.pt", "solid.off", "solid.glb"]
         .iter()

@@ -100,7 +100,10 @@ pub fn soup_to_mesh(soup: &TriangleSoup, p: &ExportParams) -> Mesh {
     let corners: Vec<[f32; 3]> = soup.triangles.iter().flatten().copied().collect();
     if p.per_vertex_colors || !p.dedup {
         let n = soup.len() as u32;
-        let mut m = Mesh::new(corners, (0..n).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect());
+        let mut m = Mesh::new(
+            corners,
+            (0..n).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+        );
         if p.per_vertex_colors {
             m.vertex_colors = Some(colors.iter().flat_map(|&c| [c, c, c]).collect());
         } else {
@@ -119,7 +122,9 @@ pub fn soup_to_mesh(soup: &TriangleSoup, p: &ExportParams) -> Mesh {
         }
         remap[i as usize] = vertices.len() as u32 - 1;
     }
-    let faces = (0..soup.len()).map(|t| [0, 1, 2].map(|k| remap[3 * t + k])).collect();
+    let faces = (0..soup.len())
+        .map(|t| [0, 1, 2].map(|k| remap[3 * t + k]))
+        .collect();
     let mut m = Mesh::new(vertices, faces);
     m.face_colors = Some(colors);
     m
@@ -185,7 +190,10 @@ pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
         format,
         FileFormat::Off | FileFormat::Glb | FileFormat::Gltf | FileFormat::Ply | FileFormat::Obj
     ) {
-        anyhow::bail!("export-off writes off, glb, gltf, ply or obj, not {}", format.name());
+        anyhow::bail!(
+            "export-off writes off, glb, gltf, ply or obj, not {}",
+            format.name()
+        );
     }
     if matches!(format, FileFormat::Glb | FileFormat::Ply) {
         crate::cli::check_binary_stdout(&args.output)?;
@@ -222,7 +230,11 @@ pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
             w,
             &mesh,
             &GltfWriteOptions {
-                container: if format == FileFormat::Gltf { GltfContainer::Gltf } else { GltfContainer::Glb },
+                container: if format == FileFormat::Gltf {
+                    GltfContainer::Gltf
+                } else {
+                    GltfContainer::Glb
+                },
             },
         ),
         FileFormat::Ply => write_mesh(w, &mesh, Format::BinaryLittleEndian),
@@ -274,12 +286,20 @@ mod tests {
         let m = soup_to_mesh(&two_triangles(), &ExportParams::default());
         assert_eq!(
             m.vertices,
-            vec![[-1.0, 2.0, 0.5], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]
+            vec![
+                [-1.0, 2.0, 0.5],
+                [0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 0.0, 0.0]
+            ]
         );
         assert_eq!(m.faces, vec![[1, 3, 2], [3, 2, 0]]);
         // 0.5 + 0.28209479·1 = 0.78209479 → ·255 = 199.43 → 199; 0.5 → 127.5 → 127.
         // 0.5 + 0.28209479·0.5 = 0.6410 → 163.46 → 163; 0.5 + 0.5642 = 1.06 → clamp → 255.
-        assert_eq!(m.face_colors.unwrap(), vec![[199, 127, 0, 255], [163, 255, 127, 255]]);
+        assert_eq!(
+            m.face_colors.unwrap(),
+            vec![[199, 127, 0, 255], [163, 255, 127, 255]]
+        );
     }
 
     #[test]
@@ -291,7 +311,10 @@ mod tests {
         s.sh_dc = vec![[0.0; 3]; 2];
         s.sh_rest = vec![0.0; 2 * 9];
         s.sh_rest[2 * 3] = 1.0; // triangle 0, k = 2 (Y_3), red
-        let p = ExportParams { view_from: [10.0, 1.0 / 3.0, 0.0], ..Default::default() };
+        let p = ExportParams {
+            view_from: [10.0, 1.0 / 3.0, 0.0],
+            ..Default::default()
+        };
         // Centroid (1/3, 1/3, 0): dir = (−1, 0, 0) → red = 0.5 + C1 = 0.98860 → 252.
         let c = triangle_colors(&s, &p);
         assert_eq!(c[0][0], 252);
@@ -302,7 +325,10 @@ mod tests {
 
     #[test]
     fn alpha_is_truncated_opacity() {
-        let p = ExportParams { alpha: true, ..Default::default() };
+        let p = ExportParams {
+            alpha: true,
+            ..Default::default()
+        };
         let c = triangle_colors(&two_triangles(), &p);
         // sigmoid(0) = 0.5 → 127; sigmoid(2) = 0.8808 → 224.6 → 224.
         assert_eq!((c[0][3], c[1][3]), (127, 224));

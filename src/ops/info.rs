@@ -10,8 +10,8 @@ use serde::Serialize;
 
 use crate::cli::{Common, shown};
 use crate::io::detect::{FileFormat, PlyKind};
-use crate::io::ply::header::PropertyKind;
 use crate::io::ply::PlyReader;
+use crate::io::ply::header::PropertyKind;
 use crate::io::{cameras, gltf, obj, off, read_input, torch_pt};
 use crate::model::mesh::bounds;
 use crate::model::{Column, Mesh};
@@ -95,7 +95,8 @@ fn mesh_info(info: &mut FileInfo, m: &Mesh) {
             info.attributes.push(name.into());
         }
     }
-    info.attributes.extend(m.vertex_scalars.iter().map(|(n, _)| n.clone()));
+    info.attributes
+        .extend(m.vertex_scalars.iter().map(|(n, _)| n.clone()));
 }
 
 /// Describes one file or camera folder (`-` = stdin).
@@ -104,7 +105,11 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         path: shown(path, false),
         ..Default::default()
     };
-    if path.is_dir() || path.extension().is_some_and(|e| e == "npz" || e == "json" || e == "bin" || e == "txt") {
+    if path.is_dir()
+        || path
+            .extension()
+            .is_some_and(|e| e == "npz" || e == "json" || e == "bin" || e == "txt")
+    {
         return describe_cameras(path, info);
     }
     let input = read_input(path)?;
@@ -117,7 +122,9 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         FileFormat::Ply => describe_ply(&name, bytes, &mut info)?,
         FileFormat::Obj => mesh_info(&mut info, &obj::parse_obj(&name, bytes)?),
         FileFormat::Off => mesh_info(&mut info, &off::parse_off(&name, bytes)?),
-        FileFormat::Glb | FileFormat::Gltf => mesh_info(&mut info, &gltf::parse_gltf(&name, bytes)?),
+        FileFormat::Glb | FileFormat::Gltf => {
+            mesh_info(&mut info, &gltf::parse_gltf(&name, bytes)?)
+        }
         FileFormat::TorchPt => {
             let s = torch_pt::parse_triangle_checkpoint(&name, bytes)?;
             info.kind = "triangle-soup".into();
@@ -139,7 +146,10 @@ fn describe_cameras(path: &Path, mut info: FileInfo) -> Result<FileInfo> {
         .unwrap_or_else(|| "cameras".into());
     info.kind = "cameras".into();
     info.cameras = Some(cams.len());
-    let mut sizes: Vec<String> = cams.iter().map(|c| format!("{}x{}", c.width, c.height)).collect();
+    let mut sizes: Vec<String> = cams
+        .iter()
+        .map(|c| format!("{}x{}", c.width, c.height))
+        .collect();
     sizes.sort();
     sizes.dedup();
     info.image_sizes = sizes;
@@ -181,7 +191,9 @@ fn describe_ply(name: &str, bytes: &[u8], info: &mut FileInfo) -> Result<()> {
                     name: p.name.clone(),
                     ty: match p.kind {
                         PropertyKind::Scalar(t) => t.name().into(),
-                        PropertyKind::List { count, item } => format!("list {} {}", count.name(), item.name()),
+                        PropertyKind::List { count, item } => {
+                            format!("list {} {}", count.name(), item.name())
+                        }
                     },
                 })
                 .collect(),
@@ -199,7 +211,10 @@ fn describe_ply(name: &str, bytes: &[u8], info: &mut FileInfo) -> Result<()> {
             let pts: Vec<[f32; 3]> = (0..x.len()).map(|i| [x[i], y[i], z[i]]).collect();
             info.bbox = bounds(&pts).map(|(a, b)| [a, b]);
         }
-        for (names, attr) in [(["nx", "ny", "nz"], "normals"), (["red", "green", "blue"], "vertex-colors")] {
+        for (names, attr) in [
+            (["nx", "ny", "nz"], "normals"),
+            (["red", "green", "blue"], "vertex-colors"),
+        ] {
             if names.iter().all(|n| v.property(n).is_some()) {
                 info.attributes.push(attr.into());
             }
@@ -209,9 +224,15 @@ fn describe_ply(name: &str, bytes: &[u8], info: &mut FileInfo) -> Result<()> {
         PlyKind::Gaussians => {
             info.gaussians = count("vertex");
             let rest = h.element("vertex").map_or(0, |v| {
-                v.properties.iter().filter(|p| p.name.starts_with("f_rest_")).count()
+                v.properties
+                    .iter()
+                    .filter(|p| p.name.starts_with("f_rest_"))
+                    .count()
             });
-            info.sh_degree = [(0, 0), (9, 1), (24, 2), (45, 3)].iter().find(|(m, _)| *m == rest).map(|(_, d)| *d);
+            info.sh_degree = [(0, 0), (9, 1), (24, 2), (45, 3)]
+                .iter()
+                .find(|(m, _)| *m == rest)
+                .map(|(_, d)| *d);
         }
         PlyKind::CompressedGaussians => info.gaussians = count("vertex"),
         PlyKind::TriangleSoup => {
@@ -224,7 +245,9 @@ fn describe_ply(name: &str, bytes: &[u8], info: &mut FileInfo) -> Result<()> {
             info.vertices = count("vertex");
             info.faces = count("face");
             if let Some(f) = ply.element("face")
-                && ["red", "green", "blue"].iter().all(|n| f.property(n).is_some())
+                && ["red", "green", "blue"]
+                    .iter()
+                    .all(|n| f.property(n).is_some())
             {
                 info.attributes.push("face-colors".into());
             }
@@ -240,7 +263,7 @@ pub fn thousands(n: usize) -> String {
     let s = n.to_string();
     let mut out = String::new();
     for (i, c) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
             out.push(',');
         }
         out.push(c);
@@ -253,7 +276,11 @@ pub fn render_text(i: &FileInfo) -> String {
     use std::fmt::Write;
     let mut s = String::new();
     let _ = writeln!(s, "{}", i.path);
-    let enc = i.encoding.as_deref().map(|e| format!(" ({e})")).unwrap_or_default();
+    let enc = i
+        .encoding
+        .as_deref()
+        .map(|e| format!(" ({e})"))
+        .unwrap_or_default();
     let _ = writeln!(s, "  format:     {}{enc}", i.format);
     let _ = writeln!(s, "  kind:       {}", i.kind);
     for (label, v) in [
@@ -269,7 +296,10 @@ pub fn render_text(i: &FileInfo) -> String {
         }
     }
     if let Some(d) = i.sh_degree {
-        let active = i.active_sh_degree.map(|a| format!(" (active {a})")).unwrap_or_default();
+        let active = i
+            .active_sh_degree
+            .map(|a| format!(" (active {a})"))
+            .unwrap_or_default();
         let _ = writeln!(s, "  SH degree:  {d}{active}");
     }
     if !i.image_sizes.is_empty() {
@@ -290,16 +320,29 @@ pub fn render_text(i: &FileInfo) -> String {
         let _ = writeln!(s, "  comment:    {c}");
     }
     for e in &i.elements {
-        let props: Vec<String> = e.properties.iter().map(|p| format!("{} {}", p.ty, p.name)).collect();
+        let props: Vec<String> = e
+            .properties
+            .iter()
+            .map(|p| format!("{} {}", p.ty, p.name))
+            .collect();
         let shown_props = if props.len() > 12 {
             format!("{} … ({} properties)", props[..12].join(", "), props.len())
         } else {
             props.join(", ")
         };
-        let _ = writeln!(s, "  element {} {}: {shown_props}", e.name, thousands(e.count as usize));
+        let _ = writeln!(
+            s,
+            "  element {} {}: {shown_props}",
+            e.name,
+            thousands(e.count as usize)
+        );
     }
     if let Some(t) = i.trailing_bytes {
-        let _ = writeln!(s, "  warning:    {} bytes after the declared data (ignored)", thousands(t));
+        let _ = writeln!(
+            s,
+            "  warning:    {} bytes after the declared data (ignored)",
+            thousands(t)
+        );
     }
     s
 }

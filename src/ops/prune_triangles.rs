@@ -58,7 +58,11 @@ pub struct PruneReport {
 fn is_degenerate(t: &[[f32; 3]; 3]) -> bool {
     let d = |a: [f32; 3], b: [f32; 3]| [0, 1, 2].map(|k| b[k] as f64 - a[k] as f64);
     let (u, v) = (d(t[0], t[1]), d(t[0], t[2]));
-    let c = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    let c = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
     c == [0.0; 3]
 }
 
@@ -94,7 +98,11 @@ pub fn prune(soup: &TriangleSoup, p: &PruneParams) -> (TriangleSoup, PruneReport
         let mut alive: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
         if alive.len() > max {
             // Most opaque first; raw logits order like activated opacities.
-            alive.sort_by(|&a, &b| soup.opacity_raw[b].total_cmp(&soup.opacity_raw[a]).then(a.cmp(&b)));
+            alive.sort_by(|&a, &b| {
+                soup.opacity_raw[b]
+                    .total_cmp(&soup.opacity_raw[a])
+                    .then(a.cmp(&b))
+            });
             for &i in &alive[max..] {
                 keep[i] = false;
             }
@@ -104,7 +112,9 @@ pub fn prune(soup: &TriangleSoup, p: &PruneParams) -> (TriangleSoup, PruneReport
     let mut out = soup.filter(&keep);
     r.kept = out.len();
     if p.solidify {
-        out.opacity_raw.iter_mut().for_each(|o| *o = SOLID_OPACITY_RAW);
+        out.opacity_raw
+            .iter_mut()
+            .for_each(|o| *o = SOLID_OPACITY_RAW);
         out.sigma_raw.iter_mut().for_each(|s| *s = SOLID_SIGMA_RAW);
     }
     (out, r)
@@ -165,7 +175,7 @@ impl PruneTrianglesArgs {
             anyhow::bail!("--min-opacity must be in [0, 1], got {t}");
         }
         if let Some(s) = p.max_sigma
-            && !(s > 0.0)
+            && (s.is_nan() || s <= 0.0)
         {
             anyhow::bail!("--max-sigma must be positive, got {s}");
         }
@@ -179,7 +189,13 @@ pub fn run(args: PruneTrianglesArgs) -> anyhow::Result<()> {
     let params = args.params()?;
     let format = output_format(
         &args.output,
-        args.format.as_deref().map(|f| if f == "pt" { FileFormat::TorchPt } else { FileFormat::Ply }),
+        args.format.as_deref().map(|f| {
+            if f == "pt" {
+                FileFormat::TorchPt
+            } else {
+                FileFormat::Ply
+            }
+        }),
         FileFormat::Ply,
     )?;
     if !matches!(format, FileFormat::Ply | FileFormat::TorchPt) {
@@ -216,7 +232,15 @@ mod tests {
     fn soup(opacities: &[f32], sigmas: &[f32]) -> TriangleSoup {
         let n = opacities.len();
         TriangleSoup {
-            triangles: (0..n).map(|i| [[i as f32, 0.0, 0.0], [i as f32 + 1.0, 0.0, 0.0], [i as f32, 1.0, 0.0]]).collect(),
+            triangles: (0..n)
+                .map(|i| {
+                    [
+                        [i as f32, 0.0, 0.0],
+                        [i as f32 + 1.0, 0.0, 0.0],
+                        [i as f32, 1.0, 0.0],
+                    ]
+                })
+                .collect(),
             opacity_raw: opacities.iter().map(|&o| logit(o)).collect(),
             sigma_raw: sigmas.iter().map(|&s| (s - 0.01).ln()).collect(),
             sh_degree: 0,
@@ -233,25 +257,47 @@ mod tests {
         // the threshold is removed (σ ≥ S). Values chosen away from f32
         // rounding except the boundary ones, which logit/exp reproduce to 1 ulp.
         let s = soup(&[0.05, 0.5, 0.9, 0.95, 0.99], &[0.5, 2.0, 0.5, 0.999, 0.1]);
-        let p = PruneParams { min_opacity: Some(0.1), max_sigma: Some(1.0), ..Default::default() };
+        let p = PruneParams {
+            min_opacity: Some(0.1),
+            max_sigma: Some(1.0),
+            ..Default::default()
+        };
         let (out, r) = prune(&s, &p);
         assert_eq!(r.removed_opacity, 1);
         assert_eq!(r.removed_sigma, 1);
-        assert_eq!(out.sh_dc.iter().map(|d| d[0]).collect::<Vec<_>>(), vec![2.0, 3.0, 4.0]);
+        assert_eq!(
+            out.sh_dc.iter().map(|d| d[0]).collect::<Vec<_>>(),
+            vec![2.0, 3.0, 4.0]
+        );
     }
 
     #[test]
     fn max_count_keeps_the_most_opaque_in_order() {
         let s = soup(&[0.3, 0.9, 0.2, 0.8, 0.9], &[0.5; 5]);
-        let (out, r) = prune(&s, &PruneParams { max_count: Some(3), ..Default::default() });
+        let (out, r) = prune(
+            &s,
+            &PruneParams {
+                max_count: Some(3),
+                ..Default::default()
+            },
+        );
         assert_eq!(r.removed_count, 2);
         // 0.9 (idx 1), 0.9 (idx 4), 0.8 (idx 3) survive, in file order.
-        assert_eq!(out.sh_dc.iter().map(|d| d[0]).collect::<Vec<_>>(), vec![1.0, 3.0, 4.0]);
+        assert_eq!(
+            out.sh_dc.iter().map(|d| d[0]).collect::<Vec<_>>(),
+            vec![1.0, 3.0, 4.0]
+        );
     }
 
     #[test]
     fn solidify_gives_opacity_one_and_hard_window() {
-        let (out, _) = prune(&soup(&[0.3, 0.6], &[0.5, 3.0]), &PruneParams { solidify: true, ..Default::default() });
+        let (out, _) = prune(
+            &soup(&[0.3, 0.6], &[0.5, 3.0]),
+            &PruneParams {
+                solidify: true,
+                ..Default::default()
+            },
+        );
         for i in 0..2 {
             assert_eq!(out.opacity(i), 1.0);
             assert_eq!(out.sigma(i), 0.0);

@@ -94,11 +94,12 @@ pub fn parse_soup(name: &str, bytes: &[u8]) -> Result<TriangleSoup> {
         })
         .collect::<Result<_>>()?;
     let n = f.count;
-    let mut sh_rest = Vec::with_capacity(n * m);
-    for i in 0..n {
+    // Channel-major columns (file) to coefficient-major rows (memory).
+    let mut sh_rest = vec![0f32; n * m];
+    for c in 0..3 {
         for kk in 0..k {
-            for c in 0..3 {
-                sh_rest.push(rest_cols[c * k + kk][i]);
+            for (i, &v) in rest_cols[c * k + kk].iter().enumerate() {
+                sh_rest[(i * k + kk) * 3 + c] = v;
             }
         }
     }
