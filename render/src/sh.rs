@@ -130,16 +130,16 @@ mod tests {
                 [(r * th.cos()) as f32, (r * th.sin()) as f32, z as f32],
                 &mut y,
             );
-            for a in 0..16 {
-                for b in 0..16 {
-                    gram[a][b] += y[a] as f64 * y[b] as f64;
+            for (row, &ya) in gram.iter_mut().zip(&y) {
+                for (g, &yb) in row.iter_mut().zip(&y) {
+                    *g += ya as f64 * yb as f64;
                 }
             }
         }
         let area = 4.0 * std::f64::consts::PI / n as f64;
-        for a in 0..16 {
-            for b in 0..16 {
-                let v = gram[a][b] * area;
+        for (a, row) in gram.iter().enumerate() {
+            for (b, g) in row.iter().enumerate() {
+                let v = g * area;
                 let want = if a == b { 1.0 } else { 0.0 };
                 assert!((v - want).abs() < 2e-3, "gram[{a}][{b}] = {v}");
             }
