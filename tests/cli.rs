@@ -222,6 +222,10 @@ fn demo_runs_end_to_end() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["prune"]["kept"], v["surface_triangles"]);
+    // 16 × 8 torus grid, closed: 256 triangles on 128 distinct vertices once
+    // the export merges bit-identical corners.
+    assert_eq!(v["surface_triangles"], 256);
+    assert_eq!(v["exported_vertices"], 128);
     for f in [
         "scene.pt",
         "scene_soup.ply",

@@ -61,11 +61,12 @@ pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
     };
     for i in 0..nu {
         for j in 0..nv {
+            // Indices wrap so the seams share bit-identical vertices.
             let (a, b, c, d) = (
                 point(i, j),
-                point(i + 1, j),
-                point(i + 1, j + 1),
-                point(i, j + 1),
+                point((i + 1) % nu, j),
+                point((i + 1) % nu, (j + 1) % nv),
+                point(i, (j + 1) % nv),
             );
             let hue = i as f32 / nu as f32;
             let rgb = [
