@@ -2,7 +2,8 @@
 //! from and to the page cache, single thread.
 //!
 //! Run: `cargo bench --bench ply_io` (or `scripts/bench_io.sh`).
-//! Environment: `SPLATKIT_BENCH_N` (default 1,000,000), `SPLATKIT_BENCH_REPS` (default 5).
+//! Environment: `SPLATKIT_BENCH_N` (default 1,000,000), `SPLATKIT_BENCH_REPS` (default 5),
+//! `SPLATKIT_BENCH_KEEP=PATH` keeps the generated file (for scripts/compare/ply_io.py).
 //! Prints the best and median of the repetitions in MB/s (1 MB = 10^6 bytes).
 
 use std::time::Instant;
@@ -65,6 +66,9 @@ fn main() {
         let ply = splatkit::io::ply::parse_ply(&input.name, &input).unwrap();
         generic_t.push(t.elapsed().as_secs_f64());
         assert_eq!(ply.elements[0].count, n);
+    }
+    if let Some(keep) = std::env::var_os("SPLATKIT_BENCH_KEEP") {
+        std::fs::copy(&path, &keep).expect("copy benchmark file");
     }
     let report = |what: &str, ts: &mut Vec<f64>| {
         ts.sort_by(f64::total_cmp);

@@ -236,3 +236,30 @@ fn demo_runs_end_to_end() {
         assert!(dir.path().join(f).exists(), "{f}");
     }
 }
+
+#[test]
+fn json_goes_to_a_file_when_stdout_carries_data() {
+    let (soup, surface) = demo_soup(2, 12);
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("s.ply");
+    std::fs::write(&input, soup_ply(&soup)).unwrap();
+    bin("prune-triangles")
+        .arg(&input)
+        .args(["-o", "-", "--json"])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("--json=FILE"));
+    let report = dir.path().join("report.json");
+    let out = bin("prune-triangles")
+        .arg(&input)
+        .args(["-o", "-", "--game-engine", "-q"])
+        .arg(format!("--json={}", report.display()))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(out.stdout.starts_with(b"ply\n"));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(v["kept"], surface);
+    assert_eq!(v["total"], soup.len());
+}

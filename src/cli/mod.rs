@@ -6,7 +6,7 @@
 pub mod commands;
 
 use std::io::IsTerminal;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -14,9 +14,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 /// Options every command accepts.
 #[derive(Args, Debug, Clone, Default)]
 pub struct Common {
-    /// Print the machine-readable result as JSON on stdout (human summary stays on stderr).
-    #[arg(long)]
-    pub json: bool,
+    /// Write the machine-readable result as JSON: `--json` prints it on stdout,
+    /// `--json=FILE` writes FILE (use that when stdout carries the data).
+    #[arg(long, value_name = "FILE", num_args = 0..=1, require_equals = true, default_missing_value = "-")]
+    pub json: Option<PathBuf>,
     /// No progress bars or summaries on stderr (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
@@ -63,10 +64,32 @@ impl Common {
         }
     }
 
-    /// Prints `value` as pretty JSON on stdout when `--json` was given.
+    /// True when the JSON result goes to stdout.
+    pub fn json_to_stdout(&self) -> bool {
+        self.json.as_ref().is_some_and(|p| p.as_os_str() == "-")
+    }
+
+    /// Fails (usage) when both the data output and `--json` want stdout.
+    pub fn check_stdout_free(&self, output: &Path) -> anyhow::Result<()> {
+        if output.as_os_str() == "-" && self.json_to_stdout() {
+            anyhow::bail!("the output goes to stdout, so the JSON report cannot: use --json=FILE");
+        }
+        Ok(())
+    }
+
+    /// Writes `value` as pretty JSON where `--json` asked (stdout or a file,
+    /// the file atomically); nothing without `--json`.
     pub fn emit_json(&self, value: &serde_json::Value) -> anyhow::Result<()> {
-        if self.json {
-            println!("{}", serde_json::to_string_pretty(value)?);
+        let Some(path) = &self.json else {
+            return Ok(());
+        };
+        let text = serde_json::to_string_pretty(value)?;
+        if path.as_os_str() == "-" {
+            println!("{text}");
+        } else {
+            crate::io::write_output(path, |w| {
+                writeln!(w, "{text}").map_err(crate::io::source::werr)
+            })?;
         }
         Ok(())
     }

@@ -152,7 +152,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         .map(|f| describe(&out(f)))
         .collect::<crate::Result<_>>()?;
     pb.finish_and_clear();
-    if !args.common.quiet && !args.common.json {
+    if !args.common.quiet && !args.common.json_to_stdout() {
         eprintln!(
             "demo: generated {} triangles ({} on a torus, {} floaters); prune kept {}; exported {} vertices / {} faces",
             soup.len(),

@@ -178,6 +178,7 @@ fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
 /// Runs the command.
 pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    args.common.check_stdout_free(&args.output)?;
     let explicit = args.format.as_deref().map(|f| match f {
         "glb" => FileFormat::Glb,
         "gltf" => FileFormat::Gltf,

@@ -370,7 +370,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     for f in &args.files {
         match describe(f) {
             Ok(i) => {
-                if !args.common.json {
+                if args.common.json.is_none() {
                     print!("{}", render_text(&i));
                 }
                 infos.push(i);
@@ -381,9 +381,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
             }
         }
     }
-    if args.common.json {
-        println!("{}", serde_json::to_string_pretty(&infos)?);
-    }
+    args.common.emit_json(&serde_json::to_value(&infos)?)?;
     if failed > 0 {
         anyhow::bail!("{failed} of {} inputs could not be read", args.files.len());
     }

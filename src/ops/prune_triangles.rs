@@ -186,6 +186,7 @@ impl PruneTrianglesArgs {
 /// Runs the command.
 pub fn run(args: PruneTrianglesArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    args.common.check_stdout_free(&args.output)?;
     let params = args.params()?;
     let format = output_format(
         &args.output,
