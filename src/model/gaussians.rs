@@ -81,12 +81,7 @@ impl Gaussians {
     /// SH coefficients of Gaussian `i`, coefficient-major `[k] = [r, g, b]`
     /// including the DC term at k = 0.
     pub fn sh_coeffs(&self, i: usize) -> Vec<[f32; 3]> {
-        let k = self.rest_per_channel();
-        let mut out = Vec::with_capacity(k + 1);
-        out.push(self.sh_dc[i]);
-        let rest = &self.sh_rest[i * k * 3..(i + 1) * k * 3];
-        out.extend(rest.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
-        out
+        super::sh_coeffs_of(&self.sh_dc, &self.sh_rest, self.rest_per_channel(), i)
     }
 
     /// Checks that every array has one entry per Gaussian.

@@ -8,6 +8,20 @@ pub mod mesh;
 pub mod point_cloud;
 pub mod triangle_soup;
 
+/// SH coefficients of item `i`, coefficient-major with the DC term at k = 0,
+/// from a DC array and a coefficient-major `rest` array with `k` higher-order
+/// coefficients per channel (the layout of [`Gaussians`] and [`TriangleSoup`]).
+pub fn sh_coeffs_of(dc: &[[f32; 3]], rest: &[f32], k: usize, i: usize) -> Vec<[f32; 3]> {
+    let mut out = Vec::with_capacity(k + 1);
+    out.push(dc[i]);
+    out.extend(
+        rest[i * k * 3..(i + 1) * k * 3]
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]]),
+    );
+    out
+}
+
 pub use attributes::{Column, Element, Extras, Property, ScalarData, ScalarType};
 pub use camera::{Camera, CameraModel};
 pub use gaussians::Gaussians;

@@ -189,3 +189,37 @@ pub fn triangulate(
     }
     Ok((tris, src))
 }
+
+/// SH degree from the `f_rest_*` property names of `element`: they must be
+/// numbered 0..M without gaps, M ∈ {0, 9, 24, 45} for degree 0–3.
+pub fn sh_degree_from_rest<'a>(
+    file: &str,
+    element: &str,
+    names: impl Iterator<Item = &'a str>,
+) -> Result<usize> {
+    let mut rest: Vec<usize> = names
+        .filter_map(|n| n.strip_prefix("f_rest_").and_then(|s| s.parse().ok()))
+        .collect();
+    rest.sort_unstable();
+    let m = rest.len();
+    if rest.iter().enumerate().any(|(i, &r)| i != r) {
+        return Err(Error::format(
+            file,
+            format!(
+                "element '{element}': f_rest_* properties are not numbered 0..{m} without gaps"
+            ),
+        ));
+    }
+    match m {
+        0 => Ok(0),
+        9 => Ok(1),
+        24 => Ok(2),
+        45 => Ok(3),
+        _ => Err(Error::format(
+            file,
+            format!(
+                "element '{element}': {m} f_rest_* properties do not match an SH degree (expected 0, 9, 24 or 45)"
+            ),
+        )),
+    }
+}

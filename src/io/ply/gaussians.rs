@@ -13,6 +13,7 @@
 
 use std::io::Write;
 
+use super::common::sh_degree_from_rest;
 use super::header::{ElementDef, Format, PropertyDef, PropertyKind, write_header};
 use super::read::{PlyReader, RawElement, prop_offsets};
 use super::write::{element_def, write_element};
@@ -79,33 +80,11 @@ fn schema(name: &str, def: &ElementDef) -> Result<(usize, bool)> {
             ),
         ));
     }
-    let mut rest: Vec<usize> = def
-        .properties
-        .iter()
-        .filter_map(|p| p.name.strip_prefix("f_rest_").and_then(|s| s.parse().ok()))
-        .collect();
-    rest.sort_unstable();
-    let m = rest.len();
-    if rest.iter().enumerate().any(|(i, &r)| i != r) {
-        return Err(Error::format(
-            name,
-            format!("f_rest_* properties are not numbered 0..{m} without gaps"),
-        ));
-    }
-    let degree = match m {
-        0 => 0,
-        9 => 1,
-        24 => 2,
-        45 => 3,
-        _ => {
-            return Err(Error::format(
-                name,
-                format!(
-                    "{m} f_rest_* properties do not match an SH degree (expected 0, 9, 24 or 45)"
-                ),
-            ));
-        }
-    };
+    let degree = sh_degree_from_rest(
+        name,
+        "vertex",
+        def.properties.iter().map(|p| p.name.as_str()),
+    )?;
     let normals = ["nx", "ny", "nz"].iter().filter(|n| has(n)).count();
     if normals != 0 && normals != 3 {
         return Err(Error::format(name, "only some of nx, ny, nz are present"));

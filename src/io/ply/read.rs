@@ -194,22 +194,7 @@ impl<'a> PlyReader<'a> {
             return Ok(element);
         }
         // Rows with lists: one pass, row by row (already bounds-checked by locate).
-        let mut cols: Vec<Column> = def
-            .properties
-            .iter()
-            .map(|p| match p.kind {
-                PropertyKind::Scalar(t) => Column::Scalar(ScalarData::with_capacity(t, count)),
-                PropertyKind::List { count: ct, item } => Column::List {
-                    count_type: ct,
-                    offsets: {
-                        let mut o = Vec::with_capacity(count + 1);
-                        o.push(0);
-                        o
-                    },
-                    values: ScalarData::with_capacity(item, count * 3),
-                },
-            })
-            .collect();
+        let mut cols = empty_columns(def, count);
         let b = raw.bytes;
         let mut pos = 0usize;
         for _ in 0..count {
@@ -292,22 +277,7 @@ impl<'a> PlyReader<'a> {
                 )));
             }
             let count = def.count as usize;
-            let mut cols: Vec<Column> = def
-                .properties
-                .iter()
-                .map(|p| match p.kind {
-                    PropertyKind::Scalar(t) => Column::Scalar(ScalarData::with_capacity(t, count)),
-                    PropertyKind::List { count: ct, item } => Column::List {
-                        count_type: ct,
-                        offsets: {
-                            let mut o = Vec::with_capacity(count + 1);
-                            o.push(0);
-                            o
-                        },
-                        values: ScalarData::with_capacity(item, count * 3),
-                    },
-                })
-                .collect();
+            let mut cols = empty_columns(def, count);
             if min_row > 0 {
                 for row in 0..count {
                     for (p, col) in def.properties.iter().zip(cols.iter_mut()) {
@@ -387,6 +357,26 @@ impl<'a> PlyReader<'a> {
         };
         Ok((out, trailing))
     }
+}
+
+/// Empty columns for `count` rows of `def`, with room reserved (callers have
+/// already checked `count` against the bytes present).
+fn empty_columns(def: &ElementDef, count: usize) -> Vec<Column> {
+    def.properties
+        .iter()
+        .map(|p| match p.kind {
+            PropertyKind::Scalar(t) => Column::Scalar(ScalarData::with_capacity(t, count)),
+            PropertyKind::List { count: ct, item } => {
+                let mut offsets = Vec::with_capacity(count + 1);
+                offsets.push(0);
+                Column::List {
+                    count_type: ct,
+                    offsets,
+                    values: ScalarData::with_capacity(item, count * 3),
+                }
+            }
+        })
+        .collect()
 }
 
 /// Byte offset of each property inside a fixed-stride row (`usize::MAX` for lists).

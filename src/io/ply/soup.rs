@@ -11,7 +11,7 @@
 
 use std::io::Write;
 
-use super::common::{take_f32, take_xyz, triangulate, u8_col};
+use super::common::{sh_degree_from_rest, take_f32, take_xyz, triangulate, u8_col};
 use super::{Format, Ply, PlyReader, write_ply};
 use crate::model::{Column, Element, Extras, ScalarData, TriangleSoup};
 use crate::{Error, Result};
@@ -61,32 +61,10 @@ pub fn parse_soup(name: &str, bytes: &[u8]) -> Result<TriangleSoup> {
                 .ok_or_else(|| Error::format(name, "f_dc_* must be scalars"))
         })
         .collect::<Result<_>>()?;
-    let mut rest_idx: Vec<usize> = f
-        .properties
-        .iter()
-        .filter_map(|p| p.name.strip_prefix("f_rest_").and_then(|s| s.parse().ok()))
-        .collect();
-    rest_idx.sort_unstable();
-    let m = rest_idx.len();
-    if rest_idx.iter().enumerate().any(|(i, &r)| i != r) {
-        return Err(Error::format(
-            name,
-            format!("face f_rest_* are not numbered 0..{m} without gaps"),
-        ));
-    }
-    let sh_degree = match m {
-        0 => 0,
-        9 => 1,
-        24 => 2,
-        45 => 3,
-        _ => {
-            return Err(Error::format(
-                name,
-                format!("{m} face f_rest_* properties match no SH degree"),
-            ));
-        }
-    };
-    let k = m / 3;
+    let sh_degree =
+        sh_degree_from_rest(name, "face", f.properties.iter().map(|p| p.name.as_str()))?;
+    let k = (sh_degree + 1) * (sh_degree + 1) - 1;
+    let m = 3 * k;
     let rest_cols: Vec<Vec<f32>> = (0..m)
         .map(|i| {
             take_f32(&mut f, &format!("f_rest_{i}"))
