@@ -7,6 +7,7 @@
 
 pub mod cli;
 pub mod error;
+pub mod geom;
 pub mod io;
 pub mod model;
 pub mod ops;

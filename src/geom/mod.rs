@@ -1,0 +1,2 @@
+//! Reusable geometry: nearest-neighbour index, surface sampling, point
+//! downsampling, rigid/similarity registration, crop volumes.
