@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::ops::{demo, export_off, info, prune_triangles};
+use crate::ops::{chamfer, demo, export_off, info, prune_triangles};
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
 #[derive(Parser, Debug)]
@@ -30,6 +30,8 @@ pub enum Command {
     PruneTriangles(prune_triangles::PruneTrianglesArgs),
     /// Export a triangle soup or mesh to OFF (Triangle Splatting layout), GLB, PLY or OBJ.
     ExportOff(export_off::ExportOffArgs),
+    /// Evaluate a surface: generic Chamfer / F-score, DTU or Tanks-and-Temples protocol.
+    Chamfer(chamfer::ChamferArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -41,6 +43,7 @@ pub fn splatkit_main() -> ! {
         Command::Info(a) => info::run(a),
         Command::PruneTriangles(a) => prune_triangles::run(a),
         Command::ExportOff(a) => export_off::run(a),
+        Command::Chamfer(a) => chamfer::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -80,4 +83,11 @@ single_command!(
     export_off::ExportOffArgs,
     export_off::run,
     "Export a triangle soup or mesh to OFF (Triangle Splatting layout), GLB, glTF, PLY or OBJ."
+);
+single_command!(
+    chamfer_main,
+    "chamfer",
+    chamfer::ChamferArgs,
+    chamfer::run,
+    "Evaluate a surface: generic Chamfer / F-score, or the DTU and Tanks-and-Temples protocols."
 );

@@ -2,6 +2,7 @@
 //! Rust on model types), its clap arguments and `run`, which only resolves
 //! files, progress and output.
 
+pub mod chamfer;
 pub mod demo;
 pub mod export_off;
 pub mod info;

@@ -1,0 +1,485 @@
+//! `chamfer`: surface evaluation.
+//!
+//! - generic mode ([`chamfer_generic`]): any two point clouds or meshes;
+//!   accuracy (prediction → GT) and completeness (GT → prediction) distance
+//!   statistics, Chamfer-L1 = (mean acc + mean comp)/2, Chamfer-L2 =
+//!   (mean acc² + mean comp²)/2, precision / recall / F-score at thresholds
+//!   (strict `<`), normal consistency when both sides have normals
+//!   (mean |n·n'| over nearest-neighbour pairs, both directions averaged);
+//! - `--protocol dtu`: [`crate::eval::dtu`] (+ [`crate::eval::cull`]);
+//! - `--protocol tnt`: [`crate::eval::tnt`].
+//!
+//! Meshes are turned into points by area-uniform sampling (default,
+//! seeded), by the DTU up-sampling rule, or by taking their vertices.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use serde_json::json;
+
+use crate::cli::{Common, shown};
+use crate::eval::dtu::{DtuParams, DtuPrediction, DtuReport, evaluate_dtu, vis_color};
+use crate::geom::knn::NnIndex;
+use crate::geom::sample::{dtu_mesh_points_par, sample_area_uniform_with_faces};
+use crate::geom::stats::DistanceStats;
+use crate::io::detect::{FileFormat, PlyKind};
+use crate::io::ply::{Format, Header, points::write_points};
+use crate::io::{any::load_mesh, read_input};
+use crate::model::{Mesh, PointCloud};
+use crate::{Error, Result};
+
+/// How a mesh becomes points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SampleMode {
+    /// Area-uniform random samples (`--count`, seeded).
+    Area,
+    /// The DTU up-sampling rule at `--spacing` (vertices + samples).
+    Dtu,
+    /// The mesh vertices only.
+    Vertices,
+}
+
+/// Points, with normals when the source has them.
+#[derive(Clone, Debug, Default)]
+pub struct Cloud {
+    pub points: Vec<[f64; 3]>,
+    pub normals: Option<Vec<[f64; 3]>>,
+}
+
+/// Options of the generic mode.
+#[derive(Clone, Debug, Serialize)]
+pub struct GenericParams {
+    pub sample: SampleMode,
+    /// Samples per mesh for `Area`.
+    pub count: usize,
+    /// Spacing for `Dtu`.
+    pub spacing: f64,
+    /// F-score thresholds.
+    pub thresholds: Vec<f64>,
+    /// Distances ≥ this are discarded before the statistics (DTU style).
+    pub max_dist: Option<f64>,
+    pub seed: u64,
+}
+
+/// Precision / recall / F-score at one threshold.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FScore {
+    pub tau: f64,
+    pub precision: f64,
+    pub recall: f64,
+    pub fscore: f64,
+}
+
+/// Result of the generic mode.
+#[derive(Clone, Debug, Serialize)]
+pub struct GenericReport {
+    pub accuracy: DistanceStats,
+    pub completeness: DistanceStats,
+    pub chamfer_l1: f64,
+    pub chamfer_l2: f64,
+    pub fscores: Vec<FScore>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub normal_consistency: Option<f64>,
+    pub pred_points: usize,
+    pub gt_points: usize,
+    /// Distances discarded by `max_dist` (accuracy, completeness).
+    pub discarded: [usize; 2],
+}
+
+fn f64_points(v: &[[f32; 3]]) -> Vec<[f64; 3]> {
+    v.iter().map(|p| p.map(f64::from)).collect()
+}
+
+fn normalize(n: [f64; 3]) -> [f64; 3] {
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    if l > 0.0 && l.is_finite() { n.map(|c| c / l) } else { [0.0; 3] }
+}
+
+/// Points of a mesh by `p.sample`.
+pub fn mesh_cloud(m: &Mesh, p: &GenericParams) -> Result<Cloud> {
+    let verts = f64_points(&m.vertices);
+    Ok(match p.sample {
+        SampleMode::Vertices => Cloud {
+            points: verts,
+            normals: m.normals.as_ref().map(|n| f64_points(n)),
+        },
+        SampleMode::Dtu => Cloud {
+            points: dtu_mesh_points_par(&verts, &m.faces, p.spacing)?,
+            normals: None,
+        },
+        SampleMode::Area => {
+            let (points, faces) = sample_area_uniform_with_faces(&verts, &m.faces, p.count, p.seed)?;
+            let normals = faces
+                .iter()
+                .map(|&f| {
+                    let [a, b, c] = m.faces[f as usize].map(|i| verts[i as usize]);
+                    let (u, v) = ([0, 1, 2].map(|k| b[k] - a[k]), [0, 1, 2].map(|k| c[k] - a[k]));
+                    normalize([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
+                })
+                .collect();
+            Cloud {
+                points,
+                normals: Some(normals),
+            }
+        }
+    })
+}
+
+/// Loads a point cloud or mesh file as points (`-` = stdin).
+pub fn load_cloud(path: &Path, p: &GenericParams) -> Result<Cloud> {
+    let input = read_input(path)?;
+    let name = input.name.clone();
+    if FileFormat::detect(path, &input) == Some(FileFormat::Ply) {
+        let h = Header::parse(&name, &input)?;
+        match PlyKind::of(&h) {
+            PlyKind::PointCloud => {
+                let pc = crate::io::ply::points::parse_points(&name, &input)?;
+                return Ok(Cloud {
+                    points: f64_points(&pc.positions),
+                    normals: pc.normals.as_ref().map(|n| f64_points(n)),
+                });
+            }
+            PlyKind::Mesh => return mesh_cloud(&crate::io::ply::mesh::parse_mesh(&name, &input)?, p),
+            other => {
+                return Err(Error::format(
+                    &name,
+                    format!("is a {} PLY; chamfer compares point clouds and meshes", other.name()),
+                ));
+            }
+        }
+    }
+    drop(input);
+    mesh_cloud(&load_mesh(path)?, p)
+}
+
+/// Drops non-finite points (and their normals); returns how many went.
+fn drop_non_finite(c: &mut Cloud) -> usize {
+    let keep: Vec<bool> = c.points.iter().map(|p| p.iter().all(|v| v.is_finite())).collect();
+    let n = keep.iter().filter(|k| !**k).count();
+    if n > 0 {
+        let mut it = keep.iter();
+        c.points.retain(|_| *it.next().expect("flag"));
+        if let Some(ns) = &mut c.normals {
+            let mut it = keep.iter();
+            ns.retain(|_| *it.next().expect("flag"));
+        }
+    }
+    n
+}
+
+/// Generic Chamfer / F-score between two clouds.
+pub fn chamfer_generic(pred: &Cloud, gt: &Cloud, p: &GenericParams) -> Result<GenericReport> {
+    if pred.points.is_empty() || gt.points.is_empty() {
+        return Err(Error::invalid(format!(
+            "cannot compare: the prediction has {} points and the ground truth {}",
+            pred.points.len(),
+            gt.points.len()
+        )));
+    }
+    let gt_index = NnIndex::new(&gt.points)?;
+    let pred_index = NnIndex::new(&pred.points)?;
+    let acc_nn = gt_index.nearest_all(&pred.points);
+    let comp_nn = pred_index.nearest_all(&gt.points);
+    let acc: Vec<f64> = acc_nn.iter().map(|r| r.map_or(f64::INFINITY, |x| x.1)).collect();
+    let comp: Vec<f64> = comp_nn.iter().map(|r| r.map_or(f64::INFINITY, |x| x.1)).collect();
+    let cap = p.max_dist.unwrap_or(f64::INFINITY);
+    let kept = |d: &[f64]| -> Vec<f64> { d.iter().copied().filter(|&x| x < cap).collect() };
+    let (acc_k, comp_k) = (kept(&acc), kept(&comp));
+    let accuracy = DistanceStats::from_distances(&acc_k);
+    let completeness = DistanceStats::from_distances(&comp_k);
+    let mean_sq = |d: &[f64]| d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64;
+    let fscores = p
+        .thresholds
+        .iter()
+        .map(|&tau| {
+            let precision = acc.iter().filter(|&&d| d < tau).count() as f64 / acc.len() as f64;
+            let recall = comp.iter().filter(|&&d| d < tau).count() as f64 / comp.len() as f64;
+            let fscore = if precision + recall > 0.0 {
+                2.0 * precision * recall / (precision + recall)
+            } else {
+                0.0
+            };
+            FScore {
+                tau,
+                precision,
+                recall,
+                fscore,
+            }
+        })
+        .collect();
+    let normal_consistency = match (&pred.normals, &gt.normals) {
+        (Some(pn), Some(gn)) => {
+            let dot = |a: [f64; 3], b: [f64; 3]| (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).abs();
+            let one = |nn: &[Option<(usize, f64)>], src: &[[f64; 3]], dst: &[[f64; 3]]| {
+                nn.iter()
+                    .zip(src)
+                    .map(|(r, &n)| r.map_or(0.0, |(j, _)| dot(normalize(n), normalize(dst[j]))))
+                    .sum::<f64>()
+                    / nn.len() as f64
+            };
+            Some((one(&acc_nn, pn, gn) + one(&comp_nn, gn, pn)) / 2.0)
+        }
+        _ => None,
+    };
+    Ok(GenericReport {
+        chamfer_l1: (accuracy.mean + completeness.mean) / 2.0,
+        chamfer_l2: (mean_sq(&acc_k) + mean_sq(&comp_k)) / 2.0,
+        accuracy,
+        completeness,
+        fscores,
+        normal_consistency,
+        pred_points: pred.points.len(),
+        gt_points: gt.points.len(),
+        discarded: [acc.len() - acc_k.len(), comp.len() - comp_k.len()],
+    })
+}
+
+/// The evaluation protocol.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Protocol {
+    /// Any two point clouds or meshes.
+    Generic,
+    /// DTU (DTUeval-python / 2DGS).
+    Dtu,
+    /// Tanks and Temples (official toolbox).
+    Tnt,
+}
+
+/// Command-line arguments of `chamfer`.
+#[derive(Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  chamfer pred.ply gt.ply --tau 0.01,0.02 --json
+  chamfer mesh.obj gt_points.ply --sample dtu --spacing 0.2 --max-dist 20
+  chamfer --protocol dtu --scan 24 --dataset-dir DTU_OFFICIAL mesh_mm.ply --vis-dir vis/
+  chamfer --protocol dtu --scan 24 --dataset-dir DTU_OFFICIAL fuse_post.ply \\
+          --cull --cameras scan24/cameras.npz --masks scan24/mask --json=scan24.json
+  chamfer --protocol tnt --scene Barn --gt-dir TNT_GT/Barn --traj Barn_COLMAP_SfM.log mesh.ply --plot pr.png")]
+pub struct ChamferArgs {
+    /// Prediction (and, in generic mode, ground truth): PLY points or meshes, OBJ, OFF, GLB.
+    #[arg(required = true, num_args = 1..=2)]
+    pub inputs: Vec<PathBuf>,
+    /// Evaluation protocol.
+    #[arg(long, value_enum, default_value = "generic")]
+    pub protocol: Protocol,
+    /// How meshes become points (generic mode).
+    #[arg(long, value_enum, default_value = "area")]
+    pub sample: SampleMode,
+    /// Samples per mesh with --sample area.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub count: usize,
+    /// Spacing of --sample dtu (same unit as the data).
+    #[arg(long, default_value_t = 0.2)]
+    pub spacing: f64,
+    /// Use mesh vertices instead of samples (same as --sample vertices).
+    #[arg(long)]
+    pub vertices: bool,
+    /// F-score thresholds, comma-separated (generic; TnT overrides the scene's τ).
+    #[arg(long, value_delimiter = ',')]
+    pub tau: Vec<f64>,
+    /// Discard distances ≥ this before statistics (generic).
+    #[arg(long)]
+    pub max_dist: Option<f64>,
+    /// Seed of every random step (sampling, DTU shuffle, TnT RANSAC).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// DTU scan number.
+    #[arg(long)]
+    pub scan: Option<u32>,
+    /// DTU: official dataset root (Points/stl, ObsMask).
+    #[arg(long)]
+    pub dataset_dir: Option<PathBuf>,
+    /// DTU: the prediction is a point cloud (reference `--mode pcd`).
+    #[arg(long)]
+    pub pcd: bool,
+    /// DTU: cull the (normalised-frame) mesh with the scene's masks and map it to mm first.
+    #[arg(long)]
+    pub cull: bool,
+    /// DTU --cull: the scene's cameras.npz (world_mat_i, scale_mat_i).
+    #[arg(long)]
+    pub cameras: Option<PathBuf>,
+    /// DTU --cull: the scene's mask folder (one PNG per view).
+    #[arg(long)]
+    pub masks: Option<PathBuf>,
+    /// DTU: write vis_XXX_d2s.ply / vis_XXX_s2d.ply (and TnT precision/recall clouds) here.
+    #[arg(long)]
+    pub vis_dir: Option<PathBuf>,
+    /// TnT scene name (Barn, Caterpillar, …): selects τ and the GT file names.
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// TnT: folder with <Scene>.ply, <Scene>.json, <Scene>_trans.txt, <Scene>_COLMAP_SfM.log.
+    #[arg(long)]
+    pub gt_dir: Option<PathBuf>,
+    /// TnT: the reconstruction's camera trajectory (.log).
+    #[arg(long)]
+    pub traj: Option<PathBuf>,
+    /// TnT: write the precision/recall-versus-threshold plot (PNG).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// Runs the command.
+pub fn run(args: ChamferArgs) -> anyhow::Result<()> {
+    args.common.init()?;
+    match args.protocol {
+        Protocol::Generic => run_generic(&args),
+        Protocol::Dtu => run_dtu(&args),
+        Protocol::Tnt => run_tnt(&args),
+    }
+}
+
+fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
+    let [pred_path, gt_path] = args.inputs.as_slice() else {
+        bail!("generic mode needs two inputs: PRED GT");
+    };
+    if args.tau.iter().any(|t| !(*t > 0.0)) {
+        bail!("--tau values must be positive");
+    }
+    let params = GenericParams {
+        sample: if args.vertices { SampleMode::Vertices } else { args.sample },
+        count: args.count,
+        spacing: args.spacing,
+        thresholds: args.tau.clone(),
+        max_dist: args.max_dist,
+        seed: args.seed,
+    };
+    let mut pred = load_cloud(pred_path, &params)?;
+    // A different seed for the GT's samples, so two copies of one mesh are
+    // not sampled at identical points.
+    let gt_params = GenericParams {
+        seed: params.seed ^ 0x9e37_79b9_7f4a_7c15,
+        ..params.clone()
+    };
+    let mut gt = load_cloud(gt_path, &gt_params)?;
+    let dropped = [drop_non_finite(&mut pred), drop_non_finite(&mut gt)];
+    let report = chamfer_generic(&pred, &gt, &params)?;
+    args.common.say(format!(
+        "chamfer: accuracy {:.6} completeness {:.6} chamfer-L1 {:.6} ({} vs {} points{})",
+        report.accuracy.mean,
+        report.completeness.mean,
+        report.chamfer_l1,
+        report.pred_points,
+        report.gt_points,
+        if dropped != [0, 0] {
+            format!("; dropped {} + {} non-finite points", dropped[0], dropped[1])
+        } else {
+            String::new()
+        }
+    ));
+    for f in &report.fscores {
+        args.common.say(format!(
+            "  tau {}: precision {:.4} recall {:.4} f-score {:.4}",
+            f.tau, f.precision, f.recall, f.fscore
+        ));
+    }
+    let mut v = serde_json::to_value(&report)?;
+    v["pred"] = shown(pred_path, false).into();
+    v["gt"] = shown(gt_path, false).into();
+    v["non_finite_dropped"] = json!(dropped);
+    v["params"] = serde_json::to_value(&params)?;
+    args.common.emit_json(&v)
+}
+
+fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
+    let [pred_path] = args.inputs.as_slice() else {
+        bail!("--protocol dtu takes one input: the predicted mesh (or point cloud with --pcd)");
+    };
+    let scan = args.scan.context("--protocol dtu needs --scan N")?;
+    let root = args.dataset_dir.as_ref().context("--protocol dtu needs --dataset-dir DTU_OFFICIAL")?;
+    let ds = crate::io::dtu::DtuOfficial::new(root);
+    ds.check(scan)?;
+    let params = DtuParams {
+        seed: args.seed,
+        ..DtuParams::default()
+    };
+    let (vertices, faces, culled) = if args.pcd {
+        if args.cull {
+            bail!("--cull applies to meshes; it cannot be combined with --pcd");
+        }
+        let pc = load_cloud(
+            pred_path,
+            &GenericParams {
+                sample: SampleMode::Vertices,
+                count: 0,
+                spacing: 0.2,
+                thresholds: vec![],
+                max_dist: None,
+                seed: 0,
+            },
+        )?;
+        (pc.points, Vec::new(), None)
+    } else {
+        let m = load_mesh(pred_path)?;
+        let verts = f64_points(&m.vertices);
+        if args.cull {
+            let cams = args.cameras.as_ref().context("--cull needs --cameras cameras.npz")?;
+            let masks = args.masks.as_ref().context("--cull needs --masks DIR")?;
+            let (views, scale_mat) = crate::eval::cull::load_views(cams, masks)?;
+            let (v, f, removed) = crate::eval::cull::cull_mesh(&verts, &m.faces, &views, &scale_mat);
+            (v, f, Some(removed))
+        } else {
+            (verts, m.faces.clone(), None)
+        }
+    };
+    if vertices.is_empty() {
+        bail!("{}: the prediction has no points to evaluate", shown(pred_path, false));
+    }
+    let stl = crate::io::ply::points::parse_points(
+        &ds.stl_path(scan).display().to_string(),
+        &read_input(&ds.stl_path(scan))?,
+    )?;
+    let stl: Vec<[f64; 3]> = f64_points(&stl.positions);
+    let stl_index = NnIndex::new(&stl).context("STL points")?;
+    let obs = crate::io::dtu::read_obs_mask(&ds.obs_mask_path(scan))?;
+    let plane = crate::io::dtu::read_plane(&ds.plane_path(scan))?;
+    let pred = if args.pcd {
+        DtuPrediction::Points(&vertices)
+    } else {
+        DtuPrediction::Mesh {
+            vertices: &vertices,
+            faces: &faces,
+        }
+    };
+    let report = evaluate_dtu(&pred, &stl, &stl_index, &obs, plane, &params)?;
+    if let Some(dir) = &args.vis_dir {
+        write_dtu_vis(dir, scan, &report, &stl, &params)?;
+    }
+    args.common.say(format!(
+        "dtu scan {scan}: mean_d2s {} mean_s2d {} overall {}",
+        report.mean_d2s, report.mean_s2d, report.overall
+    ));
+    let mut v = serde_json::to_value(&report)?;
+    v["scan"] = scan.into();
+    v["pred"] = shown(pred_path, false).into();
+    if let Some(r) = culled {
+        v["culled_vertices"] = r.into();
+    }
+    args.common.emit_json(&v)
+}
+
+/// Writes the two reference visualisation clouds.
+fn write_dtu_vis(dir: &Path, scan: u32, r: &DtuReport, stl: &[[f64; 3]], p: &DtuParams) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
+    let cloud = |pts: &[[f64; 3]], d: &[f64]| PointCloud {
+        positions: pts.iter().map(|q| q.map(|c| c as f32)).collect(),
+        normals: None,
+        colors: Some(d.iter().map(|&x| vis_color(x, p)).collect()),
+        extras: Default::default(),
+    };
+    let d2s = cloud(&r.vis.data_down, &r.vis.d2s);
+    crate::io::write_output(&dir.join(format!("vis_{scan:03}_d2s.ply")), |w| {
+        write_points(w, &d2s, Format::BinaryLittleEndian)
+    })?;
+    let s2d = cloud(stl, &r.vis.s2d);
+    crate::io::write_output(&dir.join(format!("vis_{scan:03}_s2d.ply")), |w| {
+        write_points(w, &s2d, Format::BinaryLittleEndian)
+    })
+}
+
+fn run_tnt(_args: &ChamferArgs) -> anyhow::Result<()> {
+    bail!("--protocol tnt is not available in this build")
+}
