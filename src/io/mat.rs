@@ -1448,7 +1448,7 @@ mod tests {
         let f = file(
             le,
             &[
-                // A 1×1 struct with one field name list (not decoded).
+                // A 1×1 struct with one field `a` = 1.0 (not decoded).
                 matrix(
                     le,
                     &[
@@ -1456,7 +1456,16 @@ mod tests {
                         dims(le, &[1, 1]),
                         small(le, MI_INT8, b"s"),
                         small(le, MI_INT32, &32i32.to_le_bytes()),
-                        element(le, MI_INT8, &[0; 32]),
+                        element(le, MI_INT8, &[&b"a"[..], &[0; 31]].concat()),
+                        matrix(
+                            le,
+                            &[
+                                flags(le, 6, 0),
+                                dims(le, &[1, 1]),
+                                element(le, MI_INT8, b""),
+                                element(le, MI_DOUBLE, &1.0f64.to_le_bytes()),
+                            ],
+                        ),
                     ],
                 ),
                 // A char array.
