@@ -4,7 +4,9 @@
 pub mod any;
 pub mod cameras;
 pub mod detect;
+pub mod dtu;
 pub mod gltf;
+pub mod mat;
 pub mod obj;
 pub mod off;
 pub mod ply;
