@@ -168,3 +168,192 @@ pub fn seeded_permutation(n: usize, seed: u64) -> Vec<usize> {
     }
     perm
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The same walk by brute force: compare with every kept point.
+    fn brute(points: &[[f64; 3]], order: &[usize], r: f64) -> Vec<usize> {
+        let mut kept: Vec<usize> = Vec::new();
+        for &i in order {
+            if kept.iter().all(|&k| dist2(&points[i], &points[k]) > r * r) {
+                kept.push(i);
+            }
+        }
+        kept
+    }
+
+    /// The greedy invariants, checked by brute force: kept points are pairwise
+    /// farther than r, and each dropped point is within r of a kept one.
+    fn check_invariants(points: &[[f64; 3]], kept: &[usize], r: f64) {
+        for (a, &i) in kept.iter().enumerate() {
+            for &j in &kept[a + 1..] {
+                assert!(
+                    dist2(&points[i], &points[j]) > r * r,
+                    "kept {i} and {j} within r"
+                );
+            }
+        }
+        let mut is_kept = vec![false; points.len()];
+        kept.iter().for_each(|&k| is_kept[k] = true);
+        for (i, p) in points.iter().enumerate().filter(|&(i, _)| !is_kept[i]) {
+            assert!(
+                kept.iter().any(|&k| dist2(p, &points[k]) <= r * r),
+                "dropped {i} has no kept neighbour"
+            );
+        }
+    }
+
+    fn uniform_cloud(rng: &mut Pcg64Mcg, n: usize, lo: f64, hi: f64) -> Vec<[f64; 3]> {
+        (0..n)
+            .map(|_| {
+                [
+                    rng.random_range(lo..hi),
+                    rng.random_range(lo..hi),
+                    rng.random_range(lo..hi),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn equals_brute_force_on_random_clouds() {
+        let mut rng = Pcg64Mcg::seed_from_u64(1);
+        for (trial, &(n, lo, hi, r)) in [
+            (3000, 0.0, 5.0, 0.2),
+            (3000, -1.0, 1.0, 0.2),
+            (2000, 0.0, 1.0, 0.05),
+            (1500, 0.0, 10.0, 1.3),
+            // Far from the origin: cell indices ~5e6, margins matter.
+            (2000, 1.0e6, 1.0e6 + 4.0, 0.2),
+            (500, 0.0, 1.0, 10.0),
+        ]
+        .iter()
+        .enumerate()
+        {
+            let pts = uniform_cloud(&mut rng, n, lo, hi);
+            let order = seeded_permutation(n, trial as u64);
+            let kept = greedy_radius_downsample(&pts, &order, r).unwrap();
+            assert_eq!(kept, brute(&pts, &order, r), "trial {trial}");
+            assert!(
+                !kept.is_empty() && kept.len() < n || r == 0.05,
+                "trial {trial}: no thinning"
+            );
+            check_invariants(&pts, &kept, r);
+        }
+    }
+
+    #[test]
+    fn clustered_and_duplicated_points() {
+        let mut rng = Pcg64Mcg::seed_from_u64(2);
+        let mut pts = Vec::new();
+        // Tight clusters (spread 0.1 < r), each centre also repeated 5 times.
+        for _ in 0..40 {
+            let c = [
+                rng.random_range(0.0..3.0),
+                rng.random_range(0.0..3.0),
+                rng.random_range(0.0..3.0),
+            ];
+            for _ in 0..5 {
+                pts.push(c);
+            }
+            for _ in 0..50 {
+                pts.push([
+                    c[0] + rng.random_range(-0.05..0.05),
+                    c[1] + rng.random_range(-0.05..0.05),
+                    c[2] + rng.random_range(-0.05..0.05),
+                ]);
+            }
+        }
+        let order = seeded_permutation(pts.len(), 77);
+        for r in [0.2, 0.0, 0.01] {
+            let kept = greedy_radius_downsample(&pts, &order, r).unwrap();
+            assert_eq!(kept, brute(&pts, &order, r), "r = {r}");
+            check_invariants(&pts, &kept, r);
+        }
+        // r = 0 keeps all distinct points: only the 4 extra copies of each
+        // centre go (random offsets never coincide exactly).
+        let kept = greedy_radius_downsample(&pts, &order, 0.0).unwrap();
+        assert_eq!(kept.len(), pts.len() - 40 * 4);
+    }
+
+    #[test]
+    fn distance_exactly_r_is_dropped() {
+        // Points on a line at spacing 0.25 (exact in binary), r = 0.25: in
+        // index order every odd point is at distance exactly r from the kept
+        // even one before it (boundary included → dropped); the even points
+        // are 2r from each other. Also points sitting exactly on cell
+        // boundaries (multiples of the cell size r).
+        let pts: Vec<[f64; 3]> = (0..20).map(|i| [i as f64 * 0.25, 1.0, -0.5]).collect();
+        let order: Vec<usize> = (0..20).collect();
+        let kept = greedy_radius_downsample(&pts, &order, 0.25).unwrap();
+        assert_eq!(kept, (0..20).step_by(2).collect::<Vec<_>>());
+        // Just below the spacing every point survives.
+        let kept = greedy_radius_downsample(&pts, &order, 0.249_999_999).unwrap();
+        assert_eq!(kept, order);
+        // 3-4-5 triangle: distance exactly 5·0.125 along a diagonal.
+        let pts = [[0.0, 0.0, 0.0], [0.375, 0.5, 0.0], [0.0, 0.0, 0.625]];
+        let kept = greedy_radius_downsample(&pts, &[0, 1, 2], 0.625).unwrap();
+        assert_eq!(kept, vec![0], "both at distance exactly 0.625 from point 0");
+    }
+
+    #[test]
+    fn order_controls_the_walk_and_repeats_are_dropped() {
+        let pts = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.5, 0.0, 0.0]];
+        assert_eq!(
+            greedy_radius_downsample(&pts, &[1, 0, 2], 0.2).unwrap(),
+            vec![1, 2]
+        );
+        assert_eq!(
+            greedy_radius_downsample(&pts, &[0, 1, 2], 0.2).unwrap(),
+            vec![0, 2]
+        );
+        assert_eq!(
+            greedy_radius_downsample(&pts, &[2, 2, 0], 0.2).unwrap(),
+            vec![2, 0]
+        );
+        // A partial order walks only the listed points.
+        assert_eq!(greedy_radius_downsample(&pts, &[1], 0.2).unwrap(), vec![1]);
+        assert!(greedy_radius_downsample(&pts, &[], 0.2).unwrap().is_empty());
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let pts = [[0.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0]];
+        let msg = greedy_radius_downsample(&pts, &[0, 1], 0.2)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("point 1"), "{msg}");
+        let msg = greedy_radius_downsample(&pts, &[0, 5], 0.2)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("entry 1") && msg.contains('5'), "{msg}");
+        for r in [-0.1, f64::NAN, f64::INFINITY] {
+            assert!(greedy_radius_downsample(&pts, &[0], r).is_err());
+        }
+    }
+
+    #[test]
+    fn seeded_permutation_is_a_reproducible_uniform_permutation() {
+        assert!(seeded_permutation(0, 1).is_empty());
+        assert_eq!(seeded_permutation(1, 1), vec![0]);
+        let p = seeded_permutation(1000, 5);
+        let mut sorted = p.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..1000).collect::<Vec<_>>());
+        assert_eq!(p, seeded_permutation(1000, 5));
+        assert_ne!(p, seeded_permutation(1000, 6));
+        // Uniformity: over 24000 seeds each of the 24 permutations of 4
+        // items has count ~ Bin(24000, 1/24), mean 1000, σ ≈ 31; 5σ bound.
+        let mut counts = std::collections::HashMap::new();
+        for seed in 0..24_000u64 {
+            *counts.entry(seeded_permutation(4, seed)).or_insert(0usize) += 1;
+        }
+        assert_eq!(counts.len(), 24);
+        let sigma = (24_000.0f64 * (1.0 / 24.0) * (23.0 / 24.0)).sqrt();
+        for (perm, &c) in &counts {
+            assert!((c as f64 - 1000.0).abs() <= 5.0 * sigma, "{perm:?}: {c}");
+        }
+    }
+}

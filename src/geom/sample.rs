@@ -80,8 +80,8 @@ pub fn dtu_upsample(
     let l1 = norm(e1);
     let l2 = norm(e2);
     let a2 = norm(cross(e1, e2));
-    // `!(a2 > 0)` also drops a NaN area, as numpy's `area2 > 0` mask does.
-    if !(a2 > 0.0) {
+    // A NaN area is dropped too, as by numpy's `area2 > 0` mask.
+    if a2.is_nan() || a2 <= 0.0 {
         return;
     }
     let thr = d * (l1 * l2 / a2).sqrt();
@@ -354,7 +354,7 @@ pub fn sample_area_uniform(
     check_faces(vertices.len(), faces)?;
     let total: f64 = face_areas(vertices, faces).iter().sum();
     let want = (density_per_unit_area * total).round();
-    if !(want <= MAX_UNIFORM_SAMPLES) {
+    if want.is_nan() || want > MAX_UNIFORM_SAMPLES {
         return Err(Error::invalid(format!(
             "density {density_per_unit_area} on a total area of {total} asks for {want} samples; \
              the limit is {MAX_UNIFORM_SAMPLES}"

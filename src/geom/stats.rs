@@ -154,3 +154,123 @@ pub fn fraction_below(d: &[f64], tau: f64) -> f64 {
     }
     d.iter().filter(|&&x| x < tau).count() as f64 / d.len() as f64
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// v_i = ((i·7919) mod 10007)·s + o for i < 10007: one rounding per value,
+    /// identical in numpy and here, so numpy's results apply bit for bit.
+    fn numpy_series(s: f64, o: f64) -> Vec<f64> {
+        (0..10007u64)
+            .map(|i| ((i * 7919) % 10007) as f64 * s + o)
+            .collect()
+    }
+
+    #[test]
+    fn pairwise_sum_matches_numpy_bits() {
+        // Expected values printed by numpy 2.4 (`repr` round-trips exactly):
+        // np.sum(v), v.mean(), v[v < 5].mean() and (v < 5).sum().
+        let v = numpy_series(0.001, 0.1);
+        assert_eq!(pairwise_sum(&v), 51065.721000000005);
+        // A plain left-to-right sum lands one ulp higher, so this test
+        // distinguishes the summation orders.
+        assert_eq!(v.iter().fold(0.0, |s, x| s + x), 51065.72100000001);
+        assert_eq!(DistanceStats::from_distances(&v).mean, 5.103000000000001);
+        assert_eq!(mean_below(&v, 5.0), (2.5494999999999997, 4900));
+        // Short inputs and the block boundaries (7/8, 128/129) agree with an
+        // exact rational sum of small integers.
+        for n in [0usize, 1, 7, 8, 9, 127, 128, 129, 1000] {
+            let ints: Vec<f64> = (0..n).map(|i| (i % 13) as f64).collect();
+            let exact: u64 = (0..n as u64).map(|i| i % 13).sum();
+            assert_eq!(pairwise_sum(&ints), exact as f64, "n = {n}");
+        }
+    }
+
+    #[test]
+    fn hand_computed_odd_and_even_counts() {
+        // Odd: sorted [1, 2, 3]; median is the middle value; p90: h = 2·0.9 =
+        // 1.8 → 2 + 0.8·(3 − 2) = 2.8 (t >= ½ branch: 3 − 1·0.2).
+        let s = DistanceStats::from_distances(&[3.0, 1.0, 2.0]);
+        assert_eq!(
+            (s.count, s.mean, s.median, s.min, s.max),
+            (3, 2.0, 2.0, 1.0, 3.0)
+        );
+        assert_eq!(s.rms, (14.0f64 / 3.0).sqrt());
+        // Values within 1 ulp of the decimal; numpy prints exactly these.
+        assert_eq!((s.p90, s.p95, s.p99), (2.8, 2.9, 2.98));
+
+        // Even: sorted [0.5, 1, 2.25, 3.5, 7, 10]; median (2.25 + 3.5)/2;
+        // p90: h = 4.5 → 7 + 0.5·3 = 8.5; p95: h = 4.75 → 10 − 0.25·3 = 9.25;
+        // p99: h = 4.95 → 10 − 0.05·3 = 9.85, which rounds to
+        // 9.850000000000001 (numpy's value); rms = sqrt(167.5625/6).
+        let s = DistanceStats::from_distances(&[0.5, 10.0, 2.25, 7.0, 1.0, 3.5]);
+        assert_eq!(s.count, 6);
+        assert_eq!(s.mean, 24.25 / 6.0);
+        assert_eq!(s.median, 2.875);
+        assert_eq!(s.rms, (167.5625f64 / 6.0).sqrt());
+        assert_eq!((s.p90, s.p95, s.p99), (8.5, 9.25, 9.850000000000001));
+        assert_eq!((s.min, s.max), (0.5, 10.0));
+
+        // numpy on [4, 1, 3, 2]: p95 = 3.8499999999999996, p99 = 3.9699999999999998.
+        let s = DistanceStats::from_distances(&[4.0, 1.0, 3.0, 2.0]);
+        assert_eq!(
+            (s.median, s.p90, s.p95, s.p99),
+            (2.5, 3.7, 3.8499999999999996, 3.9699999999999998)
+        );
+    }
+
+    #[test]
+    fn percentiles_match_numpy_on_a_large_series() {
+        // numpy 2.4: np.percentile(v, [90, 95, 99]), np.median(v),
+        // np.sqrt(np.mean(v**2)) for this series (n = 10007, odd).
+        let v = numpy_series(0.37, 0.01);
+        let s = DistanceStats::from_distances(&v);
+        assert_eq!(
+            (s.p90, s.p95, s.p99),
+            (3332.008, 3517.1189999999997, 3665.2078)
+        );
+        assert_eq!(s.median, 1851.12);
+        assert_eq!(s.rms, 2137.53977787549);
+        assert_eq!(percentile_sorted(&[1.0, 2.0], 0.0), 1.0);
+        assert_eq!(percentile_sorted(&[1.0, 2.0], 100.0), 2.0);
+        assert_eq!(percentile_sorted(&[7.0], 50.0), 7.0);
+        assert!(percentile_sorted(&[], 50.0).is_nan());
+    }
+
+    #[test]
+    fn empty_input_gives_nan() {
+        let s = DistanceStats::from_distances(&[]);
+        assert_eq!(s.count, 0);
+        for x in [s.mean, s.median, s.rms, s.p90, s.p95, s.p99, s.max, s.min] {
+            assert!(x.is_nan());
+        }
+        let (m, n) = mean_below(&[], 20.0);
+        assert!(m.is_nan() && n == 0);
+        assert!(fraction_below(&[], 1.0).is_nan());
+    }
+
+    #[test]
+    fn mean_below_discards_values_at_or_above_the_cap() {
+        // 20 (equal to the cap), 25 and NaN are discarded, not clamped:
+        // mean of [1, 2, 19.5] = 22.5/3 = 7.5.
+        let d = [1.0, 20.0, 2.0, 25.0, f64::NAN, 19.5];
+        assert_eq!(mean_below(&d, 20.0), (7.5, 3));
+        // Everything at the cap → nothing left.
+        let (m, n) = mean_below(&[20.0, 20.0], 20.0);
+        assert!(m.is_nan() && n == 0);
+        // Clamping would have given (1 + 20 + 2 + 20 + 19.5)/5 = 12.5.
+        assert_ne!(mean_below(&d, 20.0).0, 12.5);
+    }
+
+    #[test]
+    fn fraction_below_is_strict() {
+        let d = [0.1, 0.2, 0.2, 0.3, 0.05];
+        // τ = 0.2: only 0.1 and 0.05 are < τ (the two 0.2 equal it).
+        assert_eq!(fraction_below(&d, 0.2), 2.0 / 5.0);
+        assert_eq!(fraction_below(&d, 0.3), 4.0 / 5.0);
+        assert_eq!(fraction_below(&d, 1.0), 1.0);
+        assert_eq!(fraction_below(&d, 0.0), 0.0);
+        assert_eq!(fraction_below(&[f64::NAN, 0.0], 1.0), 0.5);
+    }
+}
