@@ -1,3 +1,6 @@
 //! Reusable geometry: nearest-neighbour index, surface sampling, point
-//! downsampling, rigid/similarity registration, crop volumes.
+//! downsampling, distance statistics, rigid/similarity registration, crop volumes.
+pub mod downsample;
 pub mod knn;
+pub mod sample;
+pub mod stats;

@@ -1,0 +1,359 @@
+//! Greedy radius downsampling (Poisson-disk thinning) of point sets, and the
+//! seeded permutation that drives it.
+//!
+//! [`greedy_radius_downsample`] reproduces step 4 of DTUeval-python `eval.py`
+//! (the MATLAB `reducePts_haa`): walk the points in a (shuffled) order and
+//! keep a point iff no already-kept point lies within distance `<= r`. The
+//! reference materialises every radius-neighbour list with sklearn; here an
+//! incremental hash grid of the kept points is used, so memory is O(kept).
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hash, Hasher};
+
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+use crate::{Error, Result};
+
+/// Integer cell coordinates, hashed by a multiplicative mix.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Cell([i64; 3]);
+
+impl Hash for Cell {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        let [x, y, z] = self.0.map(|c| c as u64);
+        let mut h = x.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ y.wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ z.wrapping_mul(0x1656_67B1_9E37_79F9);
+        h ^= h >> 29;
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 32;
+        state.write_u64(h);
+    }
+}
+
+/// Passes the already-mixed `u64` of [`Cell`] through.
+#[derive(Default)]
+struct PassHasher(u64);
+
+impl Hasher for PassHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ u64::from(b)).wrapping_mul(0x100_0000_01B3);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = v;
+    }
+}
+
+/// Squared distance with the terms summed x, y, z in order, as sklearn's
+/// Euclidean reduced distance.
+#[inline]
+fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    dx * dx + dy * dy + dz * dz
+}
+
+/// Greedy radius downsampling: walks `points[order[0]], points[order[1]], …`
+/// and keeps a point iff no point kept before it lies within Euclidean
+/// distance `<= r` (boundary included, the test being `dx²+dy²+dz² <= r²` in
+/// f64, as sklearn's `radius_neighbors`). Returns the kept indices (into
+/// `points`) in walk order.
+///
+/// This is DTU step 4 (`reducePts_haa`, `r = 0.2` mm): the reference's "kill
+/// all neighbours of each surviving point" walk keeps exactly the same
+/// points. Indices repeated in `order` are visited again and dropped (a point
+/// is within 0 of itself). `r = 0` drops exact duplicates only.
+///
+/// Kept points live in a hash grid of cell size `r`; each query visits the
+/// cells covering `p ± r` on every axis (27 cells, occasionally a few more
+/// where a floating-point margin straddles a cell boundary), so no kept
+/// neighbour is ever missed, whatever the coordinate magnitude.
+///
+/// Errors: `r` negative or not finite; an `order` entry out of range; a point
+/// with a NaN or infinite coordinate (named by index) reached by the walk.
+pub fn greedy_radius_downsample(
+    points: &[[f64; 3]],
+    order: &[usize],
+    r: f64,
+) -> Result<Vec<usize>> {
+    if !(r >= 0.0 && r.is_finite()) {
+        return Err(Error::invalid(format!(
+            "downsampling radius must be finite and >= 0, got {r}"
+        )));
+    }
+    let r2 = r * r;
+    let cell_size = if r > 0.0 { r } else { 1.0 };
+    // `as i64` saturates, which keeps the cell map monotone in x, so the
+    // covering-range argument below still holds for huge coordinates.
+    let cell_of = |x: f64| (x / cell_size).floor() as i64;
+
+    let mut kept: Vec<usize> = Vec::new();
+    let mut kept_pts: Vec<[f64; 3]> = Vec::new();
+    // Per kept point: the next kept point of the same cell (u32::MAX ends).
+    let mut next: Vec<u32> = Vec::new();
+    let mut heads: HashMap<Cell, u32, BuildHasherDefault<PassHasher>> = HashMap::default();
+
+    for (walk, &idx) in order.iter().enumerate() {
+        let Some(p) = points.get(idx) else {
+            return Err(Error::invalid(format!(
+                "order entry {walk} is {idx}, but there are {} points",
+                points.len()
+            )));
+        };
+        if p.iter().any(|c| !c.is_finite()) {
+            return Err(Error::invalid(format!(
+                "point {idx} has a non-finite coordinate: {p:?}"
+            )));
+        }
+        // Any q with computed dist2 <= r² has |q_a − p_a| <= r(1 + 4ε) per
+        // axis; the margin covers that and the rounding of p ± reach, so
+        // q's cell lies in [cell(p − reach), cell(p + reach)] (floor and
+        // division are monotone).
+        let range = |a: usize| {
+            let reach = r + (r + p[a].abs()) * 1e-9;
+            (cell_of(p[a] - reach), cell_of(p[a] + reach))
+        };
+        let (rx, ry, rz) = (range(0), range(1), range(2));
+        let mut near = false;
+        'cells: for cx in rx.0..=rx.1 {
+            for cy in ry.0..=ry.1 {
+                for cz in rz.0..=rz.1 {
+                    let Some(&head) = heads.get(&Cell([cx, cy, cz])) else {
+                        continue;
+                    };
+                    let mut k = head;
+                    while k != u32::MAX {
+                        if dist2(p, &kept_pts[k as usize]) <= r2 {
+                            near = true;
+                            break 'cells;
+                        }
+                        k = next[k as usize];
+                    }
+                }
+            }
+        }
+        if near {
+            continue;
+        }
+        let slot = u32::try_from(kept.len())
+            .ok()
+            .filter(|&s| s != u32::MAX)
+            .ok_or_else(|| Error::invalid("more than 2^32 − 1 points kept by downsampling"))?;
+        let cell = Cell([cell_of(p[0]), cell_of(p[1]), cell_of(p[2])]);
+        let head = heads.entry(cell).or_insert(u32::MAX);
+        next.push(*head);
+        *head = slot;
+        kept.push(idx);
+        kept_pts.push(*p);
+    }
+    Ok(kept)
+}
+
+/// A uniformly random permutation of `0..n`, reproducible from `seed`:
+/// Fisher–Yates from the back (`for i in (1..n).rev()`, swap `i` with a
+/// uniform `j` in `0..=i`) driven by `Pcg64Mcg::seed_from_u64(seed)`.
+/// This replaces the reference's unseeded `np.random.default_rng().shuffle`
+/// (DTU step 3), so downsampling results are repeatable.
+pub fn seeded_permutation(n: usize, seed: u64) -> Vec<usize> {
+    let mut perm: Vec<usize> = (0..n).collect();
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    for i in (1..n).rev() {
+        let j = rng.random_range(0..=i);
+        perm.swap(i, j);
+    }
+    perm
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The same walk by brute force: compare with every kept point.
+    fn brute(points: &[[f64; 3]], order: &[usize], r: f64) -> Vec<usize> {
+        let mut kept: Vec<usize> = Vec::new();
+        for &i in order {
+            if kept.iter().all(|&k| dist2(&points[i], &points[k]) > r * r) {
+                kept.push(i);
+            }
+        }
+        kept
+    }
+
+    /// The greedy invariants, checked by brute force: kept points are pairwise
+    /// farther than r, and each dropped point is within r of a kept one.
+    fn check_invariants(points: &[[f64; 3]], kept: &[usize], r: f64) {
+        for (a, &i) in kept.iter().enumerate() {
+            for &j in &kept[a + 1..] {
+                assert!(
+                    dist2(&points[i], &points[j]) > r * r,
+                    "kept {i} and {j} within r"
+                );
+            }
+        }
+        let mut is_kept = vec![false; points.len()];
+        kept.iter().for_each(|&k| is_kept[k] = true);
+        for (i, p) in points.iter().enumerate().filter(|&(i, _)| !is_kept[i]) {
+            assert!(
+                kept.iter().any(|&k| dist2(p, &points[k]) <= r * r),
+                "dropped {i} has no kept neighbour"
+            );
+        }
+    }
+
+    fn uniform_cloud(rng: &mut Pcg64Mcg, n: usize, lo: f64, hi: f64) -> Vec<[f64; 3]> {
+        (0..n)
+            .map(|_| {
+                [
+                    rng.random_range(lo..hi),
+                    rng.random_range(lo..hi),
+                    rng.random_range(lo..hi),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn equals_brute_force_on_random_clouds() {
+        let mut rng = Pcg64Mcg::seed_from_u64(1);
+        for (trial, &(n, lo, hi, r)) in [
+            (3000, 0.0, 5.0, 0.2),
+            (3000, -1.0, 1.0, 0.2),
+            (2000, 0.0, 1.0, 0.05),
+            (1500, 0.0, 10.0, 1.3),
+            // Far from the origin: cell indices ~5e6, margins matter.
+            (2000, 1.0e6, 1.0e6 + 4.0, 0.2),
+            (500, 0.0, 1.0, 10.0),
+        ]
+        .iter()
+        .enumerate()
+        {
+            let pts = uniform_cloud(&mut rng, n, lo, hi);
+            let order = seeded_permutation(n, trial as u64);
+            let kept = greedy_radius_downsample(&pts, &order, r).unwrap();
+            assert_eq!(kept, brute(&pts, &order, r), "trial {trial}");
+            assert!(
+                !kept.is_empty() && kept.len() < n || r == 0.05,
+                "trial {trial}: no thinning"
+            );
+            check_invariants(&pts, &kept, r);
+        }
+    }
+
+    #[test]
+    fn clustered_and_duplicated_points() {
+        let mut rng = Pcg64Mcg::seed_from_u64(2);
+        let mut pts = Vec::new();
+        // Tight clusters (spread 0.1 < r), each centre also repeated 5 times.
+        for _ in 0..40 {
+            let c = [
+                rng.random_range(0.0..3.0),
+                rng.random_range(0.0..3.0),
+                rng.random_range(0.0..3.0),
+            ];
+            for _ in 0..5 {
+                pts.push(c);
+            }
+            for _ in 0..50 {
+                pts.push([
+                    c[0] + rng.random_range(-0.05..0.05),
+                    c[1] + rng.random_range(-0.05..0.05),
+                    c[2] + rng.random_range(-0.05..0.05),
+                ]);
+            }
+        }
+        let order = seeded_permutation(pts.len(), 77);
+        for r in [0.2, 0.0, 0.01] {
+            let kept = greedy_radius_downsample(&pts, &order, r).unwrap();
+            assert_eq!(kept, brute(&pts, &order, r), "r = {r}");
+            check_invariants(&pts, &kept, r);
+        }
+        // r = 0 keeps all distinct points: only the 4 extra copies of each
+        // centre go (random offsets never coincide exactly).
+        let kept = greedy_radius_downsample(&pts, &order, 0.0).unwrap();
+        assert_eq!(kept.len(), pts.len() - 40 * 4);
+    }
+
+    #[test]
+    fn distance_exactly_r_is_dropped() {
+        // Points on a line at spacing 0.25 (exact in binary), r = 0.25: in
+        // index order every odd point is at distance exactly r from the kept
+        // even one before it (boundary included → dropped); the even points
+        // are 2r from each other. Also points sitting exactly on cell
+        // boundaries (multiples of the cell size r).
+        let pts: Vec<[f64; 3]> = (0..20).map(|i| [i as f64 * 0.25, 1.0, -0.5]).collect();
+        let order: Vec<usize> = (0..20).collect();
+        let kept = greedy_radius_downsample(&pts, &order, 0.25).unwrap();
+        assert_eq!(kept, (0..20).step_by(2).collect::<Vec<_>>());
+        // Just below the spacing every point survives.
+        let kept = greedy_radius_downsample(&pts, &order, 0.249_999_999).unwrap();
+        assert_eq!(kept, order);
+        // 3-4-5 triangle: distance exactly 5·0.125 along a diagonal.
+        let pts = [[0.0, 0.0, 0.0], [0.375, 0.5, 0.0], [0.0, 0.0, 0.625]];
+        let kept = greedy_radius_downsample(&pts, &[0, 1, 2], 0.625).unwrap();
+        assert_eq!(kept, vec![0], "both at distance exactly 0.625 from point 0");
+    }
+
+    #[test]
+    fn order_controls_the_walk_and_repeats_are_dropped() {
+        let pts = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.5, 0.0, 0.0]];
+        assert_eq!(
+            greedy_radius_downsample(&pts, &[1, 0, 2], 0.2).unwrap(),
+            vec![1, 2]
+        );
+        assert_eq!(
+            greedy_radius_downsample(&pts, &[0, 1, 2], 0.2).unwrap(),
+            vec![0, 2]
+        );
+        assert_eq!(
+            greedy_radius_downsample(&pts, &[2, 2, 0], 0.2).unwrap(),
+            vec![2, 0]
+        );
+        // A partial order walks only the listed points.
+        assert_eq!(greedy_radius_downsample(&pts, &[1], 0.2).unwrap(), vec![1]);
+        assert!(greedy_radius_downsample(&pts, &[], 0.2).unwrap().is_empty());
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let pts = [[0.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0]];
+        let msg = greedy_radius_downsample(&pts, &[0, 1], 0.2)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("point 1"), "{msg}");
+        let msg = greedy_radius_downsample(&pts, &[0, 5], 0.2)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("entry 1") && msg.contains('5'), "{msg}");
+        for r in [-0.1, f64::NAN, f64::INFINITY] {
+            assert!(greedy_radius_downsample(&pts, &[0], r).is_err());
+        }
+    }
+
+    #[test]
+    fn seeded_permutation_is_a_reproducible_uniform_permutation() {
+        assert!(seeded_permutation(0, 1).is_empty());
+        assert_eq!(seeded_permutation(1, 1), vec![0]);
+        let p = seeded_permutation(1000, 5);
+        let mut sorted = p.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..1000).collect::<Vec<_>>());
+        assert_eq!(p, seeded_permutation(1000, 5));
+        assert_ne!(p, seeded_permutation(1000, 6));
+        // Uniformity: over 24000 seeds each of the 24 permutations of 4
+        // items has count ~ Bin(24000, 1/24), mean 1000, σ ≈ 31; 5σ bound.
+        let mut counts = std::collections::HashMap::new();
+        for seed in 0..24_000u64 {
+            *counts.entry(seeded_permutation(4, seed)).or_insert(0usize) += 1;
+        }
+        assert_eq!(counts.len(), 24);
+        let sigma = (24_000.0f64 * (1.0 / 24.0) * (23.0 / 24.0)).sqrt();
+        for (perm, &c) in &counts {
+            assert!((c as f64 - 1000.0).abs() <= 5.0 * sigma, "{perm:?}: {c}");
+        }
+    }
+}
