@@ -66,6 +66,7 @@ fn build_dataset(root: &Path) {
             }
         }
     }
+    std::fs::create_dir_all(root.join("ObsMask")).unwrap();
     let obs = ObsMask { mask, dims, bb: [[-1.0, -1.0, -1.0], [21.0, 21.0, 29.0]], res: 1.0 };
     write_obs_mask(&root.join("ObsMask/ObsMask24_10.mat"), &obs).unwrap();
     write_plane(&root.join("ObsMask/Plane24.mat"), [0.0, 0.0, 1.0, 1.0]).unwrap();

@@ -41,7 +41,7 @@ fn pairwise_rec(a: &[f64]) -> f64 {
 /// propagate into `mean` and `rms` and sort after every number (so they
 /// become `max` and may enter the upper percentiles); callers pass finite
 /// distances.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct DistanceStats {
     /// Number of distances.
     pub count: usize,

@@ -318,6 +318,9 @@ pub struct ChamferArgs {
     /// TnT: write the precision/recall-versus-threshold plot (PNG).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// TnT: evaluate mesh vertices and face centroids (2DGS's eval script) instead of vertices only.
+    #[arg(long)]
+    pub with_centroids: bool,
     #[command(flatten)]
     pub common: Common,
 }
@@ -384,28 +387,43 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
     args.common.emit_json(&v)
 }
 
-fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
-    let [pred_path] = args.inputs.as_slice() else {
-        bail!("--protocol dtu takes one input: the predicted mesh (or point cloud with --pcd)");
-    };
-    let scan = args.scan.context("--protocol dtu needs --scan N")?;
-    let root = args.dataset_dir.as_ref().context("--protocol dtu needs --dataset-dir DTU_OFFICIAL")?;
-    let ds = crate::io::dtu::DtuOfficial::new(root);
-    ds.check(scan)?;
-    let params = DtuParams {
-        seed: args.seed,
-        ..DtuParams::default()
-    };
-    let (vertices, faces, culled) = if args.pcd {
-        if args.cull {
+/// Inputs of a DTU evaluation from files.
+#[derive(Clone, Debug)]
+pub struct DtuFiles<'a> {
+    /// The prediction (mesh, or point cloud when `pcd`).
+    pub pred: &'a Path,
+    /// Official dataset root.
+    pub dataset_dir: &'a Path,
+    pub scan: u32,
+    pub pcd: bool,
+    /// `cameras.npz` and mask folder for the culling step.
+    pub cull: Option<(&'a Path, &'a Path)>,
+}
+
+/// What [`dtu_from_files`] returns.
+pub struct DtuRun {
+    pub report: DtuReport,
+    /// Vertices removed by culling, when it ran.
+    pub culled: Option<usize>,
+    /// The STL points (for the visualisation).
+    pub stl: Vec<[f64; 3]>,
+}
+
+/// Reads everything a DTU evaluation needs and runs it (the whole
+/// `--protocol dtu` path without the output side).
+pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun> {
+    let ds = crate::io::dtu::DtuOfficial::new(f.dataset_dir);
+    ds.check(f.scan)?;
+    let (vertices, faces, culled) = if f.pcd {
+        if f.cull.is_some() {
             bail!("--cull applies to meshes; it cannot be combined with --pcd");
         }
         let pc = load_cloud(
-            pred_path,
+            f.pred,
             &GenericParams {
                 sample: SampleMode::Vertices,
                 count: 0,
-                spacing: 0.2,
+                spacing: params.density,
                 thresholds: vec![],
                 max_dist: None,
                 seed: 0,
@@ -413,30 +431,26 @@ fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
         )?;
         (pc.points, Vec::new(), None)
     } else {
-        let m = load_mesh(pred_path)?;
+        let m = load_mesh(f.pred)?;
         let verts = f64_points(&m.vertices);
-        if args.cull {
-            let cams = args.cameras.as_ref().context("--cull needs --cameras cameras.npz")?;
-            let masks = args.masks.as_ref().context("--cull needs --masks DIR")?;
+        if let Some((cams, masks)) = f.cull {
             let (views, scale_mat) = crate::eval::cull::load_views(cams, masks)?;
-            let (v, f, removed) = crate::eval::cull::cull_mesh(&verts, &m.faces, &views, &scale_mat);
-            (v, f, Some(removed))
+            let (v, fc, removed) = crate::eval::cull::cull_mesh(&verts, &m.faces, &views, &scale_mat);
+            (v, fc, Some(removed))
         } else {
             (verts, m.faces.clone(), None)
         }
     };
     if vertices.is_empty() {
-        bail!("{}: the prediction has no points to evaluate", shown(pred_path, false));
+        bail!("{}: the prediction has no points to evaluate", shown(f.pred, false));
     }
-    let stl = crate::io::ply::points::parse_points(
-        &ds.stl_path(scan).display().to_string(),
-        &read_input(&ds.stl_path(scan))?,
-    )?;
+    let stl_path = ds.stl_path(f.scan);
+    let stl = crate::io::ply::points::parse_points(&stl_path.display().to_string(), &read_input(&stl_path)?)?;
     let stl: Vec<[f64; 3]> = f64_points(&stl.positions);
-    let stl_index = NnIndex::new(&stl).context("STL points")?;
-    let obs = crate::io::dtu::read_obs_mask(&ds.obs_mask_path(scan))?;
-    let plane = crate::io::dtu::read_plane(&ds.plane_path(scan))?;
-    let pred = if args.pcd {
+    let stl_index = NnIndex::new(&stl).with_context(|| format!("{}", stl_path.display()))?;
+    let obs = crate::io::dtu::read_obs_mask(&ds.obs_mask_path(f.scan))?;
+    let plane = crate::io::dtu::read_plane(&ds.plane_path(f.scan))?;
+    let pred = if f.pcd {
         DtuPrediction::Points(&vertices)
     } else {
         DtuPrediction::Mesh {
@@ -444,18 +458,50 @@ fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
             faces: &faces,
         }
     };
-    let report = evaluate_dtu(&pred, &stl, &stl_index, &obs, plane, &params)?;
+    let report = evaluate_dtu(&pred, &stl, &stl_index, &obs, plane, params)?;
+    Ok(DtuRun { report, culled, stl })
+}
+
+fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
+    let [pred_path] = args.inputs.as_slice() else {
+        bail!("--protocol dtu takes one input: the predicted mesh (or point cloud with --pcd)");
+    };
+    let scan = args.scan.context("--protocol dtu needs --scan N")?;
+    let root = args.dataset_dir.as_ref().context("--protocol dtu needs --dataset-dir DTU_OFFICIAL")?;
+    let cull = if args.cull {
+        Some((
+            args.cameras.as_deref().context("--cull needs --cameras cameras.npz")?,
+            args.masks.as_deref().context("--cull needs --masks DIR")?,
+        ))
+    } else {
+        None
+    };
+    let params = DtuParams {
+        seed: args.seed,
+        ..DtuParams::default()
+    };
+    let run = dtu_from_files(
+        &DtuFiles {
+            pred: pred_path,
+            dataset_dir: root,
+            scan,
+            pcd: args.pcd,
+            cull,
+        },
+        &params,
+    )?;
+    let report = &run.report;
     if let Some(dir) = &args.vis_dir {
-        write_dtu_vis(dir, scan, &report, &stl, &params)?;
+        write_dtu_vis(dir, scan, report, &run.stl, &params)?;
     }
     args.common.say(format!(
         "dtu scan {scan}: mean_d2s {} mean_s2d {} overall {}",
         report.mean_d2s, report.mean_s2d, report.overall
     ));
-    let mut v = serde_json::to_value(&report)?;
+    let mut v = serde_json::to_value(report)?;
     v["scan"] = scan.into();
     v["pred"] = shown(pred_path, false).into();
-    if let Some(r) = culled {
+    if let Some(r) = run.culled {
         v["culled_vertices"] = r.into();
     }
     args.common.emit_json(&v)
@@ -480,6 +526,99 @@ fn write_dtu_vis(dir: &Path, scan: u32, r: &DtuReport, stl: &[[f64; 3]], p: &Dtu
     })
 }
 
-fn run_tnt(_args: &ChamferArgs) -> anyhow::Result<()> {
-    bail!("--protocol tnt is not available in this build")
+/// Colour of a TnT visualisation point: distance clipped at 3τ on a
+/// white (0) → red → black (≥ 3τ) ramp, the look of matplotlib's `hot_r`
+/// the toolbox uses (approximated: white → yellow → red → black).
+fn hot_r(d: f64, tau: f64) -> [u8; 3] {
+    let t = (d / (3.0 * tau)).clamp(0.0, 1.0);
+    // hot runs black → red → yellow → white over thirds; hot_r reverses it.
+    let h = 1.0 - t;
+    let c = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+    [c(h * 3.0), c(h * 3.0 - 1.0), c(h * 3.0 - 2.0)]
+}
+
+fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
+    use crate::eval::tnt::{TntParams, evaluate_tnt, plot_pr_curves, tnt_threshold, vertices_and_face_centroids};
+    let [pred_path] = args.inputs.as_slice() else {
+        bail!("--protocol tnt takes one input: the reconstruction (mesh or point cloud)");
+    };
+    let scene = args.scene.as_deref().context("--protocol tnt needs --scene NAME (Barn, Caterpillar, ...)")?;
+    let gt_dir = args.gt_dir.as_ref().context("--protocol tnt needs --gt-dir DIR")?;
+    let traj = args.traj.as_ref().context("--protocol tnt needs --traj RECONSTRUCTION.log")?;
+    let tau = match args.tau.as_slice() {
+        [] => tnt_threshold(scene).with_context(|| {
+            format!("no published threshold for scene '{scene}': give --tau")
+        })?,
+        [t] if *t > 0.0 => *t,
+        _ => bail!("--protocol tnt takes one positive --tau"),
+    };
+    let file = |suffix: &str| gt_dir.join(format!("{scene}{suffix}"));
+    let missing: Vec<String> = [".ply", ".json", "_trans.txt", "_COLMAP_SfM.log"]
+        .iter()
+        .map(|s| file(s))
+        .filter(|p| !p.exists())
+        .map(|p| p.display().to_string())
+        .collect();
+    if !missing.is_empty() {
+        bail!("missing Tanks-and-Temples ground truth: {}", missing.join(", "));
+    }
+    // The official toolbox reads a mesh PLY's vertices (`read_point_cloud`);
+    // 2DGS's script adds the face centroids (`--with-centroids`).
+    let rec_points = if args.with_centroids {
+        let m = load_mesh(pred_path)?;
+        vertices_and_face_centroids(&f64_points(&m.vertices), &m.faces)?
+    } else {
+        load_cloud(
+            pred_path,
+            &GenericParams {
+                sample: SampleMode::Vertices,
+                count: 0,
+                spacing: 0.0,
+                thresholds: vec![],
+                max_dist: None,
+                seed: 0,
+            },
+        )?
+        .points
+    };
+    let gt = crate::io::ply::points::parse_points(
+        &file(".ply").display().to_string(),
+        &read_input(&file(".ply"))?,
+    )?;
+    let gt_points = f64_points(&gt.positions);
+    let rec_traj: Vec<_> = crate::io::tnt::read_log(traj)?.iter().map(|f| f.pose).collect();
+    let gt_traj: Vec<_> = crate::io::tnt::read_log(&file("_COLMAP_SfM.log"))?.iter().map(|f| f.pose).collect();
+    let trans = crate::io::tnt::read_trans(&file("_trans.txt"))?;
+    let crop = crate::io::tnt::read_crop_json(&file(".json"))?;
+    let mut params = TntParams::default();
+    params.ransac.seed = args.seed;
+    let report = evaluate_tnt(&rec_points, &rec_traj, &gt_traj, &trans, &crop, &gt_points, tau, &params)?;
+    if let Some(plot) = &args.plot {
+        crate::io::write_output(plot, |w| plot_pr_curves(&report, w))?;
+    }
+    if let Some(dir) = &args.vis_dir {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
+        for (what, pts, d) in [
+            ("precision", &report.source_eval_points, &report.source_distances),
+            ("recall", &report.target_eval_points, &report.target_distances),
+        ] {
+            let pc = PointCloud {
+                positions: pts.iter().map(|q| q.map(|c| c as f32)).collect(),
+                normals: None,
+                colors: Some(d.iter().map(|&x| hot_r(x, tau)).collect()),
+                extras: Default::default(),
+            };
+            crate::io::write_output(&dir.join(format!("{scene}.{what}.ply")), |w| {
+                write_points(w, &pc, Format::BinaryLittleEndian)
+            })?;
+        }
+    }
+    args.common.say(format!(
+        "tnt {scene}: precision {:.4} recall {:.4} f-score {:.4} (tau {tau})",
+        report.precision, report.recall, report.fscore
+    ));
+    let mut v = serde_json::to_value(&report)?;
+    v["scene"] = scene.into();
+    v["pred"] = shown(pred_path, false).into();
+    args.common.emit_json(&v)
 }
