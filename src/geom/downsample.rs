@@ -15,7 +15,7 @@ use rand_pcg::Pcg64Mcg;
 
 use crate::{Error, Result};
 
-/// Integer cell coordinates, hashed by a multiplicative mix.
+/// Integer block coordinates, hashed by a multiplicative mix.
 #[derive(Clone, Copy, PartialEq, Eq)]
 struct Cell([i64; 3]);
 
@@ -58,6 +58,12 @@ fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     dx * dx + dy * dy + dz * dz
 }
 
+/// Side of a grid block, in units of `r`. Each query box (side `2r`)
+/// overlaps about `(1 + 2/BLOCK_FACTOR)³ ≈ 3.4` blocks, and the kept points of
+/// a block sit together in memory, so a query costs a few hash probes and a
+/// contiguous scan instead of 27 scattered probes.
+const BLOCK_FACTOR: f64 = 4.0;
+
 /// Greedy radius downsampling: walks `points[order[0]], points[order[1]], …`
 /// and keeps a point iff no point kept before it lies within Euclidean
 /// distance `<= r` (boundary included, the test being `dx²+dy²+dz² <= r²` in
@@ -69,10 +75,13 @@ fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// points. Indices repeated in `order` are visited again and dropped (a point
 /// is within 0 of itself). `r = 0` drops exact duplicates only.
 ///
-/// Kept points live in a hash grid of cell size `r`; each query visits the
-/// cells covering `p ± r` on every axis (27 cells, occasionally a few more
-/// where a floating-point margin straddles a cell boundary), so no kept
-/// neighbour is ever missed, whatever the coordinate magnitude.
+/// Kept points are stored in an incremental hash grid of blocks of side `4r`
+/// (each block holding its kept points contiguously); a query scans the
+/// blocks covering `p ± r` on every axis — the 3×3×3 neighbourhood of cells
+/// of side `r` is always inside them — widened by a floating-point margin so
+/// no kept neighbour is ever missed, whatever the coordinate magnitude.
+/// Memory is O(kept); nothing is stored for dropped points and no neighbour
+/// list is built.
 ///
 /// Errors: `r` negative or not finite; an `order` entry out of range; a point
 /// with a NaN or infinite coordinate (named by index) reached by the walk.
@@ -86,18 +95,8 @@ pub fn greedy_radius_downsample(
             "downsampling radius must be finite and >= 0, got {r}"
         )));
     }
-    let r2 = r * r;
-    let cell_size = if r > 0.0 { r } else { 1.0 };
-    // `as i64` saturates, which keeps the cell map monotone in x, so the
-    // covering-range argument below still holds for huge coordinates.
-    let cell_of = |x: f64| (x / cell_size).floor() as i64;
-
+    let mut grid = KeptGrid::new(r);
     let mut kept: Vec<usize> = Vec::new();
-    let mut kept_pts: Vec<[f64; 3]> = Vec::new();
-    // Per kept point: the next kept point of the same cell (u32::MAX ends).
-    let mut next: Vec<u32> = Vec::new();
-    let mut heads: HashMap<Cell, u32, BuildHasherDefault<PassHasher>> = HashMap::default();
-
     for (walk, &idx) in order.iter().enumerate() {
         let Some(p) = points.get(idx) else {
             return Err(Error::invalid(format!(
@@ -110,48 +109,82 @@ pub fn greedy_radius_downsample(
                 "point {idx} has a non-finite coordinate: {p:?}"
             )));
         }
+        if !grid.near(p) {
+            grid.insert(p);
+            kept.push(idx);
+        }
+    }
+    Ok(kept)
+}
+
+/// The kept points, bucketed in blocks of side `BLOCK_FACTOR·r`.
+struct KeptGrid {
+    r: f64,
+    r2: f64,
+    block_size: f64,
+    blocks: HashMap<Cell, Vec<[f64; 3]>, BuildHasherDefault<PassHasher>>,
+}
+
+impl KeptGrid {
+    fn new(r: f64) -> Self {
+        KeptGrid {
+            r,
+            r2: r * r,
+            block_size: if r > 0.0 { r * BLOCK_FACTOR } else { 1.0 },
+            blocks: HashMap::default(),
+        }
+    }
+
+    /// Block index along one axis. `as i64` saturates, which keeps the map
+    /// monotone in x, so the covering-range argument of [`Self::near`] holds
+    /// for huge coordinates too.
+    #[inline]
+    fn block_of(&self, x: f64) -> i64 {
+        (x / self.block_size).floor() as i64
+    }
+
+    #[inline]
+    fn home(&self, p: &[f64; 3]) -> Cell {
+        Cell(p.map(|x| self.block_of(x)))
+    }
+
+    /// True when a stored point q has `dist2(p, q) <= r²`.
+    fn near(&self, p: &[f64; 3]) -> bool {
+        let near_in = |cell: &Cell| {
+            self.blocks
+                .get(cell)
+                .is_some_and(|pts| pts.iter().any(|q| dist2(p, q) <= self.r2))
+        };
+        // The home block first: it holds the nearest kept points most often.
+        let home = self.home(p);
+        if near_in(&home) {
+            return true;
+        }
         // Any q with computed dist2 <= r² has |q_a − p_a| <= r(1 + 4ε) per
         // axis; the margin covers that and the rounding of p ± reach, so
-        // q's cell lies in [cell(p − reach), cell(p + reach)] (floor and
+        // q's block lies in [block(p − reach), block(p + reach)] (floor and
         // division are monotone).
         let range = |a: usize| {
-            let reach = r + (r + p[a].abs()) * 1e-9;
-            (cell_of(p[a] - reach), cell_of(p[a] + reach))
+            let reach = self.r + (self.r + p[a].abs()) * 1e-9;
+            self.block_of(p[a] - reach)..=self.block_of(p[a] + reach)
         };
-        let (rx, ry, rz) = (range(0), range(1), range(2));
-        let mut near = false;
-        'cells: for cx in rx.0..=rx.1 {
-            for cy in ry.0..=ry.1 {
-                for cz in rz.0..=rz.1 {
-                    let Some(&head) = heads.get(&Cell([cx, cy, cz])) else {
-                        continue;
-                    };
-                    let mut k = head;
-                    while k != u32::MAX {
-                        if dist2(p, &kept_pts[k as usize]) <= r2 {
-                            near = true;
-                            break 'cells;
-                        }
-                        k = next[k as usize];
+        for bx in range(0) {
+            for by in range(1) {
+                for bz in range(2) {
+                    let cell = Cell([bx, by, bz]);
+                    if cell != home && near_in(&cell) {
+                        return true;
                     }
                 }
             }
         }
-        if near {
-            continue;
-        }
-        let slot = u32::try_from(kept.len())
-            .ok()
-            .filter(|&s| s != u32::MAX)
-            .ok_or_else(|| Error::invalid("more than 2^32 − 1 points kept by downsampling"))?;
-        let cell = Cell([cell_of(p[0]), cell_of(p[1]), cell_of(p[2])]);
-        let head = heads.entry(cell).or_insert(u32::MAX);
-        next.push(*head);
-        *head = slot;
-        kept.push(idx);
-        kept_pts.push(*p);
+        false
     }
-    Ok(kept)
+
+    fn insert(&mut self, p: &[f64; 3]) {
+        let home = self.home(p);
+        self.blocks.entry(home).or_default().push(*p);
+    }
 }
 
 /// A uniformly random permutation of `0..n`, reproducible from `seed`:
