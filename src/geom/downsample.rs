@@ -90,6 +90,19 @@ pub fn greedy_radius_downsample(
     order: &[usize],
     r: f64,
 ) -> Result<Vec<usize>> {
+    if r > 0.0 && r.is_finite() && order.len() == points.len() && order.len() >= ROUNDS_MIN_POINTS {
+        if let Some(kept) = rounds::downsample(points, order, r)? {
+            return Ok(kept);
+        }
+    }
+    sequential_walk(points, order, r)
+}
+
+/// Inputs smaller than this use the sequential walk directly.
+const ROUNDS_MIN_POINTS: usize = 50_000;
+
+/// The walk of [`greedy_radius_downsample`], one point after the other.
+fn sequential_walk(points: &[[f64; 3]], order: &[usize], r: f64) -> Result<Vec<usize>> {
     if !(r >= 0.0 && r.is_finite()) {
         return Err(Error::invalid(format!(
             "downsampling radius must be finite and >= 0, got {r}"
@@ -200,6 +213,159 @@ pub fn seeded_permutation(n: usize, seed: u64) -> Vec<usize> {
         perm.swap(i, j);
     }
     perm
+}
+
+/// The same result as the sequential walk, computed in spatial order.
+///
+/// The walk keeps a point iff every point of lower rank (earlier in the walk)
+/// within r was dropped: the lexicographically-first maximal independent set
+/// of the "within r" graph. It is computed in rounds over the points sorted
+/// by 4r-block along a Morton curve (so neighbours are close in memory): in a
+/// round, an undecided point with a kept lower-rank neighbour is dropped, one
+/// whose lower-rank neighbours are all dropped is kept, the others wait. Each
+/// round reads only the state at its start, so it runs in parallel and
+/// deterministically. For a random walk order the rounds shrink fast; after
+/// [`MAX_ROUNDS`] whatever is left is finished one point at a time in walk
+/// order (every lower-rank point is decided by then), so adversarial orders
+/// stay correct and never quadratic in rounds.
+mod rounds {
+    use std::collections::HashMap;
+    use std::hash::BuildHasherDefault;
+
+    use rayon::prelude::*;
+
+    use super::{Cell, PassHasher, dist2};
+    use crate::{Error, Result};
+
+    const UNDECIDED: u8 = 0;
+    const KEPT: u8 = 1;
+    const DROPPED: u8 = 2;
+    pub(super) const MAX_ROUNDS: usize = 48;
+
+    /// 21-bit interleave.
+    fn spread(mut x: u64) -> u64 {
+        x &= 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        x
+    }
+
+    /// `None` when `order` is not a permutation or the cloud spans more
+    /// blocks than a Morton key holds (the caller then walks sequentially).
+    pub(super) fn downsample(points: &[[f64; 3]], order: &[usize], r: f64) -> Result<Option<Vec<usize>>> {
+        let n = points.len();
+        let mut rank = vec![u32::MAX; n];
+        for (k, &i) in order.iter().enumerate() {
+            if i >= n || rank[i] != u32::MAX {
+                return Ok(None);
+            }
+            rank[i] = k as u32;
+        }
+        if let Some(i) = points.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+            return Err(Error::invalid(format!(
+                "point {i} has a non-finite coordinate: {:?}",
+                points[i]
+            )));
+        }
+        let size = r * super::BLOCK_FACTOR;
+        let block = |p: &[f64; 3]| p.map(|x| (x / size).floor() as i64);
+        let mut lo = [i64::MAX; 3];
+        let mut hi = [i64::MIN; 3];
+        for p in points {
+            let b = block(p);
+            for a in 0..3 {
+                lo[a] = lo[a].min(b[a]);
+                hi[a] = hi[a].max(b[a]);
+            }
+        }
+        if (0..3).any(|a| hi[a] - lo[a] >= 1 << 21) {
+            return Ok(None);
+        }
+        let morton = |b: [i64; 3]| {
+            spread((b[0] - lo[0]) as u64) | spread((b[1] - lo[1]) as u64) << 1 | spread((b[2] - lo[2]) as u64) << 2
+        };
+        let mut sorted: Vec<(u64, u32)> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| (morton(block(p)), i as u32))
+            .collect();
+        sorted.par_sort_unstable();
+        let pts: Vec<[f64; 3]> = sorted.par_iter().map(|&(_, i)| points[i as usize]).collect();
+        let rk: Vec<u32> = sorted.par_iter().map(|&(_, i)| rank[i as usize]).collect();
+        let mut blocks: HashMap<Cell, (u32, u32), BuildHasherDefault<PassHasher>> = HashMap::default();
+        let mut start = 0usize;
+        while start < n {
+            let key = sorted[start].0;
+            let mut end = start + 1;
+            while end < n && sorted[end].0 == key {
+                end += 1;
+            }
+            blocks.insert(Cell(block(&pts[start])), (start as u32, end as u32));
+            start = end;
+        }
+        let r2 = r * r;
+        let mut state = vec![UNDECIDED; n];
+        // Decision for sorted position i given `state`.
+        let decide = |i: usize, state: &[u8]| -> u8 {
+            let p = &pts[i];
+            let rp = rk[i];
+            let range = |a: usize| {
+                let reach = r + (r + p[a].abs()) * 1e-9;
+                ((p[a] - reach) / size).floor() as i64..=((p[a] + reach) / size).floor() as i64
+            };
+            let mut waiting = false;
+            for bx in range(0) {
+                for by in range(1) {
+                    for bz in range(2) {
+                        let Some(&(s, e)) = blocks.get(&Cell([bx, by, bz])) else { continue };
+                        for j in s as usize..e as usize {
+                            let st = state[j];
+                            if st == DROPPED || rk[j] >= rp || dist2(p, &pts[j]) > r2 {
+                                continue;
+                            }
+                            if st == KEPT {
+                                return DROPPED;
+                            }
+                            waiting = true;
+                        }
+                    }
+                }
+            }
+            if waiting { UNDECIDED } else { KEPT }
+        };
+        let mut undecided: Vec<u32> = (0..n as u32).collect();
+        for _ in 0..MAX_ROUNDS {
+            if undecided.is_empty() {
+                break;
+            }
+            let snapshot = &state;
+            let decisions: Vec<u8> = undecided
+                .par_iter()
+                .with_min_len(4096)
+                .map(|&i| decide(i as usize, snapshot))
+                .collect();
+            for (&i, &d) in undecided.iter().zip(&decisions) {
+                state[i as usize] = d;
+            }
+            undecided.retain(|&i| state[i as usize] == UNDECIDED);
+        }
+        // Whatever is left, in walk order: every lower-rank point is decided
+        // when its turn comes.
+        undecided.sort_unstable_by_key(|&i| rk[i as usize]);
+        for &i in &undecided {
+            let d = decide(i as usize, &state);
+            state[i as usize] = if d == UNDECIDED { KEPT } else { d };
+        }
+        let mut kept: Vec<(u32, usize)> = (0..n)
+            .filter(|&i| state[i] == KEPT)
+            .map(|i| (rk[i], sorted[i].1 as usize))
+            .collect();
+        kept.par_sort_unstable();
+        Ok(Some(kept.into_iter().map(|(_, i)| i).collect()))
+    }
 }
 
 #[cfg(test)]
