@@ -1,6 +1,9 @@
 //! Reusable geometry: nearest-neighbour index, surface sampling, point
 //! downsampling, distance statistics, rigid/similarity registration, crop volumes.
+pub mod crop;
 pub mod downsample;
 pub mod knn;
+pub mod registration;
 pub mod sample;
 pub mod stats;
+pub mod voxel;

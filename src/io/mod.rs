@@ -11,6 +11,7 @@ pub mod obj;
 pub mod off;
 pub mod ply;
 pub mod source;
+pub mod tnt;
 pub mod torch_pt;
 
 pub use source::{Input, read_input, write_output};
