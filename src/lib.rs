@@ -7,6 +7,7 @@
 
 pub mod cli;
 pub mod error;
+pub mod eval;
 pub mod geom;
 pub mod io;
 pub mod model;

@@ -1,0 +1,5 @@
+//! Surface-reconstruction benchmarks as pure functions on point sets: each
+//! module reproduces one published evaluation protocol (see
+//! `eval_tsdf.md`), leaving file handling to the commands in `ops`.
+
+pub mod tnt;
