@@ -1,5 +1,7 @@
-//! Evaluation protocols (DTU Chamfer, Tanks-and-Temples F-score) as pure
-//! functions on points and meshes; the `chamfer` command drives them.
+//! Surface-reconstruction benchmarks as pure functions on point sets: each
+//! module reproduces one published evaluation protocol (see `eval_tsdf.md`),
+//! leaving file handling to the `chamfer` command in `ops`.
 
 pub mod cull;
 pub mod dtu;
+pub mod tnt;

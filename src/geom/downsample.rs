@@ -555,4 +555,28 @@ mod tests {
             assert!((c as f64 - 1000.0).abs() <= 5.0 * sigma, "{perm:?}: {c}");
         }
     }
+
+    /// The round-based path gives exactly the sequential walk's result, for a
+    /// random order and for an adversarial one (walk along a line of points
+    /// closer than r, one decision per round) that exhausts the rounds.
+    #[test]
+    fn rounds_equal_the_sequential_walk() {
+        let mut rng = Pcg64Mcg::seed_from_u64(42);
+        let mut pts: Vec<[f64; 3]> = (0..60_000)
+            .map(|_| {
+                let (u, v): (f64, f64) = (rng.random_range(0.0..6.0), rng.random_range(0.0..6.0));
+                [u, v, 0.1 * (u * 1.7).sin()]
+            })
+            .collect();
+        pts.extend((0..2000).map(|i| [i as f64 * 0.15, 7.0, 0.0]));
+        let dup: Vec<[f64; 3]> = pts[..500].to_vec();
+        pts.extend(dup);
+        let order = seeded_permutation(pts.len(), 3);
+        let fast = greedy_radius_downsample(&pts, &order, 0.2).unwrap();
+        assert_eq!(fast, sequential_walk(&pts, &order, 0.2).unwrap());
+        let mut line_first: Vec<usize> = (60_000..62_000).collect();
+        line_first.extend((0..60_000).chain(62_000..pts.len()));
+        let fast = greedy_radius_downsample(&pts, &line_first, 0.2).unwrap();
+        assert_eq!(fast, sequential_walk(&pts, &line_first, 0.2).unwrap());
+    }
 }
