@@ -17,7 +17,9 @@ use splatkit::eval::dtu::DtuParams;
 use splatkit::io::dtu::{ObsMask, write_obs_mask, write_plane};
 use splatkit::io::ply::{Format, mesh::write_mesh, points::write_points};
 use splatkit::model::{Mesh, PointCloud};
-use splatkit::ops::chamfer::{Cloud, DtuFiles, GenericParams, SampleMode, chamfer_generic, dtu_from_files};
+use splatkit::ops::chamfer::{
+    Cloud, DtuFiles, GenericParams, SampleMode, chamfer_generic, dtu_from_files,
+};
 
 fn fibonacci(n: usize, r: f64, c: [f64; 3], noise: f64, seed: u64) -> Vec<[f64; 3]> {
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
@@ -27,8 +29,16 @@ fn fibonacci(n: usize, r: f64, c: [f64; 3], noise: f64, seed: u64) -> Vec<[f64; 
             let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
             let s = (1.0 - z * z).sqrt();
             let t = golden * i as f64;
-            let rr = r + if noise > 0.0 { rng.random_range(-noise..noise) } else { 0.0 };
-            [c[0] + rr * s * t.cos(), c[1] + rr * s * t.sin(), c[2] + rr * z]
+            let rr = r + if noise > 0.0 {
+                rng.random_range(-noise..noise)
+            } else {
+                0.0
+            };
+            [
+                c[0] + rr * s * t.cos(),
+                c[1] + rr * s * t.sin(),
+                c[2] + rr * z,
+            ]
         })
         .collect()
 }
@@ -65,7 +75,10 @@ fn uv_sphere(rings: usize, segments: usize, r: f64, c: [f64; 3]) -> Mesh {
 }
 
 fn main() {
-    let scale: f64 = std::env::var("SPLATKIT_BENCH_SCALE").ok().and_then(|s| s.parse().ok()).unwrap_or(1.0);
+    let scale: f64 = std::env::var("SPLATKIT_BENCH_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0);
     println!(
         "chamfer bench: {} threads, scale {scale}",
         rayon::current_num_threads()
@@ -80,8 +93,14 @@ fn main() {
     let mesh = uv_sphere(rings, 2 * rings, 150.0, c);
     let stl = fibonacci((3_000_000.0 * scale) as usize, 150.3, c, 0.05, 1);
     let pred_path = dir.path().join("mesh.ply");
-    splatkit::io::write_output(&pred_path, |w| write_mesh(w, &mesh, Format::BinaryLittleEndian)).unwrap();
-    let pc = PointCloud { positions: stl.iter().map(|p| p.map(|x| x as f32)).collect(), ..Default::default() };
+    splatkit::io::write_output(&pred_path, |w| {
+        write_mesh(w, &mesh, Format::BinaryLittleEndian)
+    })
+    .unwrap();
+    let pc = PointCloud {
+        positions: stl.iter().map(|p| p.map(|x| x as f32)).collect(),
+        ..Default::default()
+    };
     splatkit::io::write_output(&root.join("Points/stl/stl024_total.ply"), |w| {
         write_points(w, &pc, Format::BinaryLittleEndian)
     })
@@ -94,12 +113,27 @@ fn main() {
     for z in 80..dims[2] {
         mask[z * dims[0] * dims[1]..(z + 1) * dims[0] * dims[1]].fill(1);
     }
-    write_obs_mask(&root.join("ObsMask/ObsMask24_10.mat"), &ObsMask { mask, dims, bb, res: 1.0 }).unwrap();
+    write_obs_mask(
+        &root.join("ObsMask/ObsMask24_10.mat"),
+        &ObsMask {
+            mask,
+            dims,
+            bb,
+            res: 1.0,
+        },
+    )
+    .unwrap();
     write_plane(&root.join("ObsMask/Plane24.mat"), [0.0, 0.0, 1.0, -480.0]).unwrap();
 
     let t = Instant::now();
     let run = dtu_from_files(
-        &DtuFiles { pred: &pred_path, dataset_dir: &root, scan: 24, pcd: false, cull: None },
+        &DtuFiles {
+            pred: &pred_path,
+            dataset_dir: &root,
+            scan: 24,
+            pcd: false,
+            cull: None,
+        },
         &DtuParams::default(),
     )
     .unwrap();
@@ -117,9 +151,22 @@ fn main() {
     );
 
     let n = (10_000_000.0 * scale) as usize;
-    let a = Cloud { points: fibonacci(n, 1.0, [0.0; 3], 0.001, 2), normals: None };
-    let b = Cloud { points: fibonacci(n, 1.0005, [0.0; 3], 0.001, 3), normals: None };
-    let p = GenericParams { sample: SampleMode::Vertices, count: 0, spacing: 0.0, thresholds: vec![0.001], max_dist: None, seed: 0 };
+    let a = Cloud {
+        points: fibonacci(n, 1.0, [0.0; 3], 0.001, 2),
+        normals: None,
+    };
+    let b = Cloud {
+        points: fibonacci(n, 1.0005, [0.0; 3], 0.001, 3),
+        normals: None,
+    };
+    let p = GenericParams {
+        sample: SampleMode::Vertices,
+        count: 0,
+        spacing: 0.0,
+        thresholds: vec![0.001],
+        max_dist: None,
+        seed: 0,
+    };
     let t = Instant::now();
     let g = chamfer_generic(&a, &b, &p).unwrap();
     println!(

@@ -55,8 +55,13 @@ fn build_dataset(root: &Path) {
         .collect();
     stl.extend((0..5).map(|x| [x as f64, 0.0, -2.0]));
     stl.push([25.0, 0.0, 0.0]);
-    let pc = PointCloud { positions: f32s(&stl), ..Default::default() };
-    write_file(&root.join("Points/stl/stl024_total.ply"), |w| write_points(w, &pc, Format::BinaryLittleEndian));
+    let pc = PointCloud {
+        positions: f32s(&stl),
+        ..Default::default()
+    };
+    write_file(&root.join("Points/stl/stl024_total.ply"), |w| {
+        write_points(w, &pc, Format::BinaryLittleEndian)
+    });
     let dims = [23usize, 23, 30];
     let mut mask = vec![0u8; dims[0] * dims[1] * dims[2]];
     for z in 0..dims[2] {
@@ -67,22 +72,38 @@ fn build_dataset(root: &Path) {
         }
     }
     std::fs::create_dir_all(root.join("ObsMask")).unwrap();
-    let obs = ObsMask { mask, dims, bb: [[-1.0, -1.0, -1.0], [21.0, 21.0, 29.0]], res: 1.0 };
+    let obs = ObsMask {
+        mask,
+        dims,
+        bb: [[-1.0, -1.0, -1.0], [21.0, 21.0, 29.0]],
+        res: 1.0,
+    };
     write_obs_mask(&root.join("ObsMask/ObsMask24_10.mat"), &obs).unwrap();
     write_plane(&root.join("ObsMask/Plane24.mat"), [0.0, 0.0, 1.0, 1.0]).unwrap();
 }
 
 fn build_scene(dir: &Path) {
     // Camera at (10, 10, 100) mm looking down −z: x right, y down.
-    let k = DMat3::from_cols(DVec3::new(1000.0, 0.0, 0.0), DVec3::new(0.0, 1000.0, 0.0), DVec3::new(800.0, 600.0, 1.0));
+    let k = DMat3::from_cols(
+        DVec3::new(1000.0, 0.0, 0.0),
+        DVec3::new(0.0, 1000.0, 0.0),
+        DVec3::new(800.0, 600.0, 1.0),
+    );
     let r = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
     let t = -(r * DVec3::new(10.0, 10.0, 100.0));
     let mut rt = DMat4::from_mat3(k * r);
     rt.w_axis = (k * t).extend(1.0);
-    let scale = DMat4::from_cols_array(&[S, 0.0, 0.0, 0.0, 0.0, S, 0.0, 0.0, 0.0, 0.0, S, 0.0, C[0], C[1], C[2], 1.0]);
-    let rows = |m: DMat4| -> Vec<f64> { (0..4).flat_map(|i| (0..4).map(move |j| m.col(j)[i])).collect() };
+    let scale = DMat4::from_cols_array(&[
+        S, 0.0, 0.0, 0.0, 0.0, S, 0.0, 0.0, 0.0, 0.0, S, 0.0, C[0], C[1], C[2], 1.0,
+    ]);
+    let rows = |m: DMat4| -> Vec<f64> {
+        (0..4)
+            .flat_map(|i| (0..4).map(move |j| m.col(j)[i]))
+            .collect()
+    };
     let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
-    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    let opts =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
     for (name, m) in [("world_mat_0.npy", rt), ("scale_mat_0.npy", scale)] {
         zip.start_file(name, opts).unwrap();
         zip.write_all(&encode_npy_f64(&[4, 4], &rows(m))).unwrap();
@@ -104,12 +125,19 @@ fn build_scene(dir: &Path) {
 
 fn run(args: &[&str], root: &Path, pred: &Path, extra: &[&Path]) -> serde_json::Value {
     let mut cmd = Command::cargo_bin("chamfer").unwrap();
-    cmd.args(["--protocol", "dtu", "--scan", "24", "--dataset-dir"]).arg(root).arg(pred).args(args);
+    cmd.args(["--protocol", "dtu", "--scan", "24", "--dataset-dir"])
+        .arg(root)
+        .arg(pred)
+        .args(args);
     for e in extra {
         cmd.arg(e);
     }
     let out = cmd.args(["--json", "-q"]).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
@@ -134,7 +162,10 @@ fn synthetic_scene_matches_hand_computed_values() {
     let s2d = (400.0 * 0.25 + 36.0625f64.sqrt()) / 401.0;
 
     let pcd = tmp.path().join("pred_pcd.ply");
-    let pc = PointCloud { positions: f32s(&pts), ..Default::default() };
+    let pc = PointCloud {
+        positions: f32s(&pts),
+        ..Default::default()
+    };
     write_file(&pcd, |w| write_points(w, &pc, Format::BinaryLittleEndian));
     let v = run(&["--pcd"], &root, &pcd, &[]);
     close(&v, "mean_d2s", d2s);
@@ -147,7 +178,9 @@ fn synthetic_scene_matches_hand_computed_values() {
     // evaluated points are the vertices; same numbers for any seed.
     let mesh = Mesh::new(f32s(&pts), vec![[0, 0, 0]]);
     let mesh_path = tmp.path().join("pred_mesh.ply");
-    write_file(&mesh_path, |w| write_mesh(w, &mesh, Format::BinaryLittleEndian));
+    write_file(&mesh_path, |w| {
+        write_mesh(w, &mesh, Format::BinaryLittleEndian)
+    });
     for seed in ["0", "7"] {
         let v = run(&["--seed", seed], &root, &mesh_path, &[]);
         close(&v, "mean_d2s", d2s);
@@ -157,14 +190,27 @@ fn synthetic_scene_matches_hand_computed_values() {
     // Culling on: the mesh in the normalised frame; grid columns x ≥ 16 (80
     // vertices) are culled. STL columns 16..19 then reach column 15:
     // √((x − 15)² + 0.25²); the far point reaches (15, 0, 0.25): √(100.0625).
-    let norm: Vec<[f64; 3]> = pts.iter().map(|p| [0, 1, 2].map(|k| (p[k] - C[k]) / S)).collect();
+    let norm: Vec<[f64; 3]> = pts
+        .iter()
+        .map(|p| [0, 1, 2].map(|k| (p[k] - C[k]) / S))
+        .collect();
     let mesh_n = Mesh::new(f32s(&norm), vec![[0, 0, 0]]);
     let norm_path = tmp.path().join("pred_norm.ply");
-    write_file(&norm_path, |w| write_mesh(w, &mesh_n, Format::BinaryLittleEndian));
+    write_file(&norm_path, |w| {
+        write_mesh(w, &mesh_n, Format::BinaryLittleEndian)
+    });
     let cams = scene.join("cameras.npz");
     let masks = scene.join("mask");
-    let v = run(&["--cull", "--cameras"], &root, &norm_path, &[&cams, Path::new("--masks"), &masks]);
-    let ring: f64 = [1.0625f64, 4.0625, 9.0625, 16.0625].iter().map(|x| x.sqrt()).sum();
+    let v = run(
+        &["--cull", "--cameras"],
+        &root,
+        &norm_path,
+        &[&cams, Path::new("--masks"), &masks],
+    );
+    let ring: f64 = [1.0625f64, 4.0625, 9.0625, 16.0625]
+        .iter()
+        .map(|x| x.sqrt())
+        .sum();
     let s2d_culled = (320.0 * 0.25 + 20.0 * ring + 100.0625f64.sqrt()) / 401.0;
     assert_eq!(v["culled_vertices"], 80);
     close(&v, "mean_d2s", d2s);
@@ -178,7 +224,10 @@ fn bad_dtu_inputs_are_clear_errors() {
     let root = tmp.path().join("DTU");
     build_dataset(&root);
     let pcd = tmp.path().join("p.ply");
-    let pc = PointCloud { positions: f32s(&pred_points()), ..Default::default() };
+    let pc = PointCloud {
+        positions: f32s(&pred_points()),
+        ..Default::default()
+    };
     write_file(&pcd, |w| write_points(w, &pc, Format::BinaryLittleEndian));
     // A scan the dataset does not have: the missing files are named.
     let out = Command::cargo_bin("chamfer")
@@ -191,7 +240,10 @@ fn bad_dtu_inputs_are_clear_errors() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("stl037_total.ply") && err.contains("ObsMask37_10.mat"), "{err}");
+    assert!(
+        err.contains("stl037_total.ply") && err.contains("ObsMask37_10.mat"),
+        "{err}"
+    );
     // A mask folder with more masks than the camera file has views.
     let scene = tmp.path().join("scan24");
     build_scene(&scene);

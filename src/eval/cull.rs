@@ -53,7 +53,9 @@ pub fn read_mask(path: &Path) -> Result<Mask> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(&name, e))?;
     let mut dec = png::Decoder::new(std::io::BufReader::new(file));
     dec.set_transformations(png::Transformations::normalize_to_color8());
-    let mut reader = dec.read_info().map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
+    let mut reader = dec
+        .read_info()
+        .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| Error::format(&name, "PNG too large"))?;
@@ -68,9 +70,7 @@ pub fn read_mask(path: &Path) -> Result<Mask> {
         png::ColorType::Rgb | png::ColorType::Rgba => 2,
         _ => 0,
     };
-    let bits = (0..w * h)
-        .map(|i| buf[i * channels + pick] != 0)
-        .collect();
+    let bits = (0..w * h).map(|i| buf[i * channels + pick] != 0).collect();
     Ok(Mask {
         width: w,
         height: h,
@@ -130,7 +130,9 @@ pub fn dilate_disk(m: &Mask, r: u32) -> Mask {
     let cols: Vec<Vec<f64>> = (0..w)
         .into_par_iter()
         .map(|x| {
-            let f: Vec<f64> = (0..h).map(|y| if m.bits[y * w + x] { 0.0 } else { far }).collect();
+            let f: Vec<f64> = (0..h)
+                .map(|y| if m.bits[y * w + x] { 0.0 } else { far })
+                .collect();
             let mut d = vec![0f64; h];
             let (mut v, mut z) = (vec![0usize; h], vec![0f64; h + 1]);
             edt_1d(&f, &mut d, &mut v, &mut z);
@@ -171,7 +173,10 @@ pub fn load_views(cameras: &Path, mask_dir: &Path) -> Result<(Vec<CullView>, DMa
         .collect();
     masks.sort();
     if masks.is_empty() {
-        return Err(Error::invalid(format!("{}: no PNG masks", mask_dir.display())));
+        return Err(Error::invalid(format!(
+            "{}: no PNG masks",
+            mask_dir.display()
+        )));
     }
     if cams.views.len() < masks.len() {
         return Err(Error::invalid(format!(
@@ -218,7 +223,8 @@ pub fn cull_vertices(vertices: &[[f64; 3]], views: &[CullView]) -> Vec<bool> {
                     return true;
                 }
                 let (c, r) = (px.round_ties_even() as usize, py.round_ties_even() as usize);
-                view.mask.bits[r.min(view.mask.height - 1) * view.mask.width + c.min(view.mask.width - 1)]
+                view.mask.bits
+                    [r.min(view.mask.height - 1) * view.mask.width + c.min(view.mask.width - 1)]
             })
         })
         .collect()
@@ -263,7 +269,11 @@ mod tests {
         for &(x, y) in &[(3usize, 4usize), (20, 20), (36, 0), (10, 28)] {
             bits[y * w + x] = true;
         }
-        let m = Mask { width: w, height: h, bits };
+        let m = Mask {
+            width: w,
+            height: h,
+            bits,
+        };
         for r in [0u32, 1, 3, 7, 24] {
             let d = dilate_disk(&m, r);
             for y in 0..h {
@@ -281,7 +291,11 @@ mod tests {
             }
         }
         // An empty mask stays empty.
-        let e = Mask { width: 5, height: 5, bits: vec![false; 25] };
+        let e = Mask {
+            width: 5,
+            height: 5,
+            bits: vec![false; 25],
+        };
         assert!(dilate_disk(&e, 3).bits.iter().all(|b| !b));
     }
 }

@@ -23,12 +23,12 @@
 
 use serde::Serialize;
 
+use crate::Result;
 use crate::geom::downsample::{greedy_radius_downsample, seeded_permutation};
 use crate::geom::knn::NnIndex;
 use crate::geom::sample::dtu_mesh_points_par;
 use crate::geom::stats::mean_below;
 use crate::io::dtu::{ObsMask, bb_filter};
-use crate::Result;
 
 /// The prediction: a mesh (up-sampled) or points (used as they are).
 #[derive(Clone, Debug)]
@@ -116,24 +116,41 @@ pub fn evaluate_dtu(
     params: &DtuParams,
 ) -> Result<DtuReport> {
     let points = match pred {
-        DtuPrediction::Mesh { vertices, faces } => dtu_mesh_points_par(vertices, faces, params.density)?,
+        DtuPrediction::Mesh { vertices, faces } => {
+            dtu_mesh_points_par(vertices, faces, params.density)?
+        }
         DtuPrediction::Points(p) => p.to_vec(),
     };
     // Non-finite points cannot be measured: they are dropped before anything
     // else (the reference would propagate NaN into its means).
-    let points: Vec<[f64; 3]> = points.into_iter().filter(|p| p.iter().all(|c| c.is_finite())).collect();
+    let points: Vec<[f64; 3]> = points
+        .into_iter()
+        .filter(|p| p.iter().all(|c| c.is_finite()))
+        .collect();
     let order = seeded_permutation(points.len(), params.seed);
     let kept = greedy_radius_downsample(&points, &order, params.density)?;
     let data_down: Vec<[f64; 3]> = kept.iter().map(|&i| points[i]).collect();
-    let in_bb: Vec<bool> = data_down.iter().map(|&p| bb_filter(p, &obs.bb, params.patch)).collect();
-    let data_in: Vec<[f64; 3]> = data_down.iter().zip(&in_bb).filter(|(_, b)| **b).map(|(p, _)| *p).collect();
+    let in_bb: Vec<bool> = data_down
+        .iter()
+        .map(|&p| bb_filter(p, &obs.bb, params.patch))
+        .collect();
+    let data_in: Vec<[f64; 3]> = data_down
+        .iter()
+        .zip(&in_bb)
+        .filter(|(_, b)| **b)
+        .map(|(p, _)| *p)
+        .collect();
     let in_obs: Vec<bool> = data_down
         .iter()
         .zip(&in_bb)
         .map(|(&p, &b)| b && obs.contains(p))
         .collect();
-    let data_in_obs: Vec<[f64; 3]> =
-        data_down.iter().zip(&in_obs).filter(|(_, b)| **b).map(|(p, _)| *p).collect();
+    let data_in_obs: Vec<[f64; 3]> = data_down
+        .iter()
+        .zip(&in_obs)
+        .filter(|(_, b)| **b)
+        .map(|(p, _)| *p)
+        .collect();
 
     let d2s = stl_index.nearest_distances(&data_in_obs);
     let (mean_d2s, d2s_used) = mean_below(&d2s, params.max_dist);
@@ -142,7 +159,12 @@ pub fn evaluate_dtu(
         .iter()
         .map(|p| plane[0] * p[0] + plane[1] * p[1] + plane[2] * p[2] + plane[3] > 0.0)
         .collect();
-    let stl_above: Vec<[f64; 3]> = stl.iter().zip(&above).filter(|(_, a)| **a).map(|(p, _)| *p).collect();
+    let stl_above: Vec<[f64; 3]> = stl
+        .iter()
+        .zip(&above)
+        .filter(|(_, a)| **a)
+        .map(|(p, _)| *p)
+        .collect();
     let data_in_index = NnIndex::new(&data_in)?;
     let s2d = data_in_index.nearest_distances(&stl_above);
     let (mean_s2d, s2d_used) = mean_below(&s2d, params.max_dist);

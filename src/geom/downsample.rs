@@ -90,10 +90,13 @@ pub fn greedy_radius_downsample(
     order: &[usize],
     r: f64,
 ) -> Result<Vec<usize>> {
-    if r > 0.0 && r.is_finite() && order.len() == points.len() && order.len() >= ROUNDS_MIN_POINTS {
-        if let Some(kept) = rounds::downsample(points, order, r)? {
-            return Ok(kept);
-        }
+    if r > 0.0
+        && r.is_finite()
+        && order.len() == points.len()
+        && order.len() >= ROUNDS_MIN_POINTS
+        && let Some(kept) = rounds::downsample(points, order, r)?
+    {
+        return Ok(kept);
     }
     sequential_walk(points, order, r)
 }
@@ -255,7 +258,11 @@ mod rounds {
 
     /// `None` when `order` is not a permutation or the cloud spans more
     /// blocks than a Morton key holds (the caller then walks sequentially).
-    pub(super) fn downsample(points: &[[f64; 3]], order: &[usize], r: f64) -> Result<Option<Vec<usize>>> {
+    pub(super) fn downsample(
+        points: &[[f64; 3]],
+        order: &[usize],
+        r: f64,
+    ) -> Result<Option<Vec<usize>>> {
         let n = points.len();
         let mut rank = vec![u32::MAX; n];
         for (k, &i) in order.iter().enumerate() {
@@ -285,7 +292,9 @@ mod rounds {
             return Ok(None);
         }
         let morton = |b: [i64; 3]| {
-            spread((b[0] - lo[0]) as u64) | spread((b[1] - lo[1]) as u64) << 1 | spread((b[2] - lo[2]) as u64) << 2
+            spread((b[0] - lo[0]) as u64)
+                | spread((b[1] - lo[1]) as u64) << 1
+                | spread((b[2] - lo[2]) as u64) << 2
         };
         let mut sorted: Vec<(u64, u32)> = points
             .par_iter()
@@ -293,9 +302,13 @@ mod rounds {
             .map(|(i, p)| (morton(block(p)), i as u32))
             .collect();
         sorted.par_sort_unstable();
-        let pts: Vec<[f64; 3]> = sorted.par_iter().map(|&(_, i)| points[i as usize]).collect();
+        let pts: Vec<[f64; 3]> = sorted
+            .par_iter()
+            .map(|&(_, i)| points[i as usize])
+            .collect();
         let rk: Vec<u32> = sorted.par_iter().map(|&(_, i)| rank[i as usize]).collect();
-        let mut blocks: HashMap<Cell, (u32, u32), BuildHasherDefault<PassHasher>> = HashMap::default();
+        let mut blocks: HashMap<Cell, (u32, u32), BuildHasherDefault<PassHasher>> =
+            HashMap::default();
         let mut start = 0usize;
         while start < n {
             let key = sorted[start].0;
@@ -320,7 +333,9 @@ mod rounds {
             for bx in range(0) {
                 for by in range(1) {
                     for bz in range(2) {
-                        let Some(&(s, e)) = blocks.get(&Cell([bx, by, bz])) else { continue };
+                        let Some(&(s, e)) = blocks.get(&Cell([bx, by, bz])) else {
+                            continue;
+                        };
                         for j in s as usize..e as usize {
                             let st = state[j];
                             if st == DROPPED || rk[j] >= rp || dist2(p, &pts[j]) > r2 {

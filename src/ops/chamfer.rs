@@ -95,7 +95,11 @@ fn f64_points(v: &[[f32; 3]]) -> Vec<[f64; 3]> {
 
 fn normalize(n: [f64; 3]) -> [f64; 3] {
     let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    if l > 0.0 && l.is_finite() { n.map(|c| c / l) } else { [0.0; 3] }
+    if l > 0.0 && l.is_finite() {
+        n.map(|c| c / l)
+    } else {
+        [0.0; 3]
+    }
 }
 
 /// Points of a mesh by `p.sample`.
@@ -111,13 +115,21 @@ pub fn mesh_cloud(m: &Mesh, p: &GenericParams) -> Result<Cloud> {
             normals: None,
         },
         SampleMode::Area => {
-            let (points, faces) = sample_area_uniform_with_faces(&verts, &m.faces, p.count, p.seed)?;
+            let (points, faces) =
+                sample_area_uniform_with_faces(&verts, &m.faces, p.count, p.seed)?;
             let normals = faces
                 .iter()
                 .map(|&f| {
                     let [a, b, c] = m.faces[f as usize].map(|i| verts[i as usize]);
-                    let (u, v) = ([0, 1, 2].map(|k| b[k] - a[k]), [0, 1, 2].map(|k| c[k] - a[k]));
-                    normalize([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
+                    let (u, v) = (
+                        [0, 1, 2].map(|k| b[k] - a[k]),
+                        [0, 1, 2].map(|k| c[k] - a[k]),
+                    );
+                    normalize([
+                        u[1] * v[2] - u[2] * v[1],
+                        u[2] * v[0] - u[0] * v[2],
+                        u[0] * v[1] - u[1] * v[0],
+                    ])
                 })
                 .collect();
             Cloud {
@@ -142,11 +154,16 @@ pub fn load_cloud(path: &Path, p: &GenericParams) -> Result<Cloud> {
                     normals: pc.normals.as_ref().map(|n| f64_points(n)),
                 });
             }
-            PlyKind::Mesh => return mesh_cloud(&crate::io::ply::mesh::parse_mesh(&name, &input)?, p),
+            PlyKind::Mesh => {
+                return mesh_cloud(&crate::io::ply::mesh::parse_mesh(&name, &input)?, p);
+            }
             other => {
                 return Err(Error::format(
                     &name,
-                    format!("is a {} PLY; chamfer compares point clouds and meshes", other.name()),
+                    format!(
+                        "is a {} PLY; chamfer compares point clouds and meshes",
+                        other.name()
+                    ),
                 ));
             }
         }
@@ -157,7 +174,11 @@ pub fn load_cloud(path: &Path, p: &GenericParams) -> Result<Cloud> {
 
 /// Drops non-finite points (and their normals); returns how many went.
 fn drop_non_finite(c: &mut Cloud) -> usize {
-    let keep: Vec<bool> = c.points.iter().map(|p| p.iter().all(|v| v.is_finite())).collect();
+    let keep: Vec<bool> = c
+        .points
+        .iter()
+        .map(|p| p.iter().all(|v| v.is_finite()))
+        .collect();
     let n = keep.iter().filter(|k| !**k).count();
     if n > 0 {
         let mut it = keep.iter();
@@ -183,8 +204,14 @@ pub fn chamfer_generic(pred: &Cloud, gt: &Cloud, p: &GenericParams) -> Result<Ge
     let pred_index = NnIndex::new(&pred.points)?;
     let acc_nn = gt_index.nearest_all(&pred.points);
     let comp_nn = pred_index.nearest_all(&gt.points);
-    let acc: Vec<f64> = acc_nn.iter().map(|r| r.map_or(f64::INFINITY, |x| x.1)).collect();
-    let comp: Vec<f64> = comp_nn.iter().map(|r| r.map_or(f64::INFINITY, |x| x.1)).collect();
+    let acc: Vec<f64> = acc_nn
+        .iter()
+        .map(|r| r.map_or(f64::INFINITY, |x| x.1))
+        .collect();
+    let comp: Vec<f64> = comp_nn
+        .iter()
+        .map(|r| r.map_or(f64::INFINITY, |x| x.1))
+        .collect();
     let cap = p.max_dist.unwrap_or(f64::INFINITY);
     let kept = |d: &[f64]| -> Vec<f64> { d.iter().copied().filter(|&x| x < cap).collect() };
     let (acc_k, comp_k) = (kept(&acc), kept(&comp));
@@ -339,11 +366,15 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
     let [pred_path, gt_path] = args.inputs.as_slice() else {
         bail!("generic mode needs two inputs: PRED GT");
     };
-    if args.tau.iter().any(|t| !(*t > 0.0)) {
+    if args.tau.iter().any(|t| t.is_nan() || *t <= 0.0) {
         bail!("--tau values must be positive");
     }
     let params = GenericParams {
-        sample: if args.vertices { SampleMode::Vertices } else { args.sample },
+        sample: if args.vertices {
+            SampleMode::Vertices
+        } else {
+            args.sample
+        },
         count: args.count,
         spacing: args.spacing,
         thresholds: args.tau.clone(),
@@ -368,7 +399,10 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
         report.pred_points,
         report.gt_points,
         if dropped != [0, 0] {
-            format!("; dropped {} + {} non-finite points", dropped[0], dropped[1])
+            format!(
+                "; dropped {} + {} non-finite points",
+                dropped[0], dropped[1]
+            )
         } else {
             String::new()
         }
@@ -435,17 +469,24 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         let verts = f64_points(&m.vertices);
         if let Some((cams, masks)) = f.cull {
             let (views, scale_mat) = crate::eval::cull::load_views(cams, masks)?;
-            let (v, fc, removed) = crate::eval::cull::cull_mesh(&verts, &m.faces, &views, &scale_mat);
+            let (v, fc, removed) =
+                crate::eval::cull::cull_mesh(&verts, &m.faces, &views, &scale_mat);
             (v, fc, Some(removed))
         } else {
             (verts, m.faces.clone(), None)
         }
     };
     if vertices.is_empty() {
-        bail!("{}: the prediction has no points to evaluate", shown(f.pred, false));
+        bail!(
+            "{}: the prediction has no points to evaluate",
+            shown(f.pred, false)
+        );
     }
     let stl_path = ds.stl_path(f.scan);
-    let stl = crate::io::ply::points::parse_points(&stl_path.display().to_string(), &read_input(&stl_path)?)?;
+    let stl = crate::io::ply::points::parse_points(
+        &stl_path.display().to_string(),
+        &read_input(&stl_path)?,
+    )?;
     let stl: Vec<[f64; 3]> = f64_points(&stl.positions);
     let stl_index = NnIndex::new(&stl).with_context(|| format!("{}", stl_path.display()))?;
     let obs = crate::io::dtu::read_obs_mask(&ds.obs_mask_path(f.scan))?;
@@ -459,7 +500,11 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         }
     };
     let report = evaluate_dtu(&pred, &stl, &stl_index, &obs, plane, params)?;
-    Ok(DtuRun { report, culled, stl })
+    Ok(DtuRun {
+        report,
+        culled,
+        stl,
+    })
 }
 
 fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
@@ -467,10 +512,15 @@ fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
         bail!("--protocol dtu takes one input: the predicted mesh (or point cloud with --pcd)");
     };
     let scan = args.scan.context("--protocol dtu needs --scan N")?;
-    let root = args.dataset_dir.as_ref().context("--protocol dtu needs --dataset-dir DTU_OFFICIAL")?;
+    let root = args
+        .dataset_dir
+        .as_ref()
+        .context("--protocol dtu needs --dataset-dir DTU_OFFICIAL")?;
     let cull = if args.cull {
         Some((
-            args.cameras.as_deref().context("--cull needs --cameras cameras.npz")?,
+            args.cameras
+                .as_deref()
+                .context("--cull needs --cameras cameras.npz")?,
             args.masks.as_deref().context("--cull needs --masks DIR")?,
         ))
     } else {
@@ -508,7 +558,13 @@ fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
 }
 
 /// Writes the two reference visualisation clouds.
-fn write_dtu_vis(dir: &Path, scan: u32, r: &DtuReport, stl: &[[f64; 3]], p: &DtuParams) -> Result<()> {
+fn write_dtu_vis(
+    dir: &Path,
+    scan: u32,
+    r: &DtuReport,
+    stl: &[[f64; 3]],
+    p: &DtuParams,
+) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
     let cloud = |pts: &[[f64; 3]], d: &[f64]| PointCloud {
         positions: pts.iter().map(|q| q.map(|c| c as f32)).collect(),
@@ -538,17 +594,27 @@ fn hot_r(d: f64, tau: f64) -> [u8; 3] {
 }
 
 fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
-    use crate::eval::tnt::{TntParams, evaluate_tnt, plot_pr_curves, tnt_threshold, vertices_and_face_centroids};
+    use crate::eval::tnt::{
+        TntParams, evaluate_tnt, plot_pr_curves, tnt_threshold, vertices_and_face_centroids,
+    };
     let [pred_path] = args.inputs.as_slice() else {
         bail!("--protocol tnt takes one input: the reconstruction (mesh or point cloud)");
     };
-    let scene = args.scene.as_deref().context("--protocol tnt needs --scene NAME (Barn, Caterpillar, ...)")?;
-    let gt_dir = args.gt_dir.as_ref().context("--protocol tnt needs --gt-dir DIR")?;
-    let traj = args.traj.as_ref().context("--protocol tnt needs --traj RECONSTRUCTION.log")?;
+    let scene = args
+        .scene
+        .as_deref()
+        .context("--protocol tnt needs --scene NAME (Barn, Caterpillar, ...)")?;
+    let gt_dir = args
+        .gt_dir
+        .as_ref()
+        .context("--protocol tnt needs --gt-dir DIR")?;
+    let traj = args
+        .traj
+        .as_ref()
+        .context("--protocol tnt needs --traj RECONSTRUCTION.log")?;
     let tau = match args.tau.as_slice() {
-        [] => tnt_threshold(scene).with_context(|| {
-            format!("no published threshold for scene '{scene}': give --tau")
-        })?,
+        [] => tnt_threshold(scene)
+            .with_context(|| format!("no published threshold for scene '{scene}': give --tau"))?,
         [t] if *t > 0.0 => *t,
         _ => bail!("--protocol tnt takes one positive --tau"),
     };
@@ -560,7 +626,10 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
         .map(|p| p.display().to_string())
         .collect();
     if !missing.is_empty() {
-        bail!("missing Tanks-and-Temples ground truth: {}", missing.join(", "));
+        bail!(
+            "missing Tanks-and-Temples ground truth: {}",
+            missing.join(", ")
+        );
     }
     // The official toolbox reads a mesh PLY's vertices (`read_point_cloud`);
     // 2DGS's script adds the face centroids (`--with-centroids`).
@@ -586,21 +655,44 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
         &read_input(&file(".ply"))?,
     )?;
     let gt_points = f64_points(&gt.positions);
-    let rec_traj: Vec<_> = crate::io::tnt::read_log(traj)?.iter().map(|f| f.pose).collect();
-    let gt_traj: Vec<_> = crate::io::tnt::read_log(&file("_COLMAP_SfM.log"))?.iter().map(|f| f.pose).collect();
+    let rec_traj: Vec<_> = crate::io::tnt::read_log(traj)?
+        .iter()
+        .map(|f| f.pose)
+        .collect();
+    let gt_traj: Vec<_> = crate::io::tnt::read_log(&file("_COLMAP_SfM.log"))?
+        .iter()
+        .map(|f| f.pose)
+        .collect();
     let trans = crate::io::tnt::read_trans(&file("_trans.txt"))?;
     let crop = crate::io::tnt::read_crop_json(&file(".json"))?;
     let mut params = TntParams::default();
     params.ransac.seed = args.seed;
-    let report = evaluate_tnt(&rec_points, &rec_traj, &gt_traj, &trans, &crop, &gt_points, tau, &params)?;
+    let report = evaluate_tnt(
+        &rec_points,
+        &rec_traj,
+        &gt_traj,
+        &trans,
+        &crop,
+        &gt_points,
+        tau,
+        &params,
+    )?;
     if let Some(plot) = &args.plot {
         crate::io::write_output(plot, |w| plot_pr_curves(&report, w))?;
     }
     if let Some(dir) = &args.vis_dir {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
         for (what, pts, d) in [
-            ("precision", &report.source_eval_points, &report.source_distances),
-            ("recall", &report.target_eval_points, &report.target_distances),
+            (
+                "precision",
+                &report.source_eval_points,
+                &report.source_distances,
+            ),
+            (
+                "recall",
+                &report.target_eval_points,
+                &report.target_distances,
+            ),
         ] {
             let pc = PointCloud {
                 positions: pts.iter().map(|q| q.map(|c| c as f32)).collect(),

@@ -1,0 +1,172 @@
+//! `chamfer --protocol tnt` end to end on a generated scene: the
+//! reconstruction is the ground truth under a known similarity (scale 2,
+//! a rotation, a shift), with its camera trajectory transformed the same way.
+//! The pipeline must undo the similarity and find every point within τ
+//! (F-score 1), and write the plot and the coloured clouds.
+
+use assert_cmd::Command;
+use splatkit::geom::crop::{Axis, CropVolume};
+use splatkit::io::ply::{Format, points::write_points};
+use splatkit::io::tnt::{LogFrame, write_crop_json, write_log};
+use splatkit::model::PointCloud;
+
+const TAU: f64 = 0.01; // Barn's threshold
+
+/// Box surface on a lattice of spacing τ (a voxel-aligned scene).
+fn box_surface() -> Vec<[f64; 3]> {
+    let mut v = Vec::new();
+    for i in 0..=60i64 {
+        for j in 0..=40i64 {
+            for k in 0..=30i64 {
+                if i == 0 || i == 60 || j == 0 || j == 40 || k == 0 || k == 30 {
+                    v.push([i as f64 * TAU, j as f64 * TAU, k as f64 * TAU]);
+                }
+            }
+        }
+    }
+    v
+}
+
+fn similarity(p: [f64; 3]) -> [f64; 3] {
+    // Rotation by 30° about z, scale 2, shift (1, 2, 3).
+    let (s, c) = 30f64.to_radians().sin_cos();
+    [
+        2.0 * (c * p[0] - s * p[1]) + 1.0,
+        2.0 * (s * p[0] + c * p[1]) + 2.0,
+        2.0 * p[2] + 3.0,
+    ]
+}
+
+fn pose(c: [f64; 3]) -> LogFrame {
+    let mut pose = [[0.0; 4]; 4];
+    for (i, row) in pose.iter_mut().enumerate() {
+        row[i] = 1.0;
+        if i < 3 {
+            row[3] = c[i];
+        }
+    }
+    LogFrame {
+        meta: [0, 0, 0],
+        pose,
+    }
+}
+
+fn cloud(p: &[[f64; 3]]) -> PointCloud {
+    PointCloud {
+        positions: p.iter().map(|q| q.map(|x| x as f32)).collect(),
+        ..Default::default()
+    }
+}
+
+#[test]
+fn similarity_copy_scores_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let gt_dir = tmp.path().join("Barn");
+    std::fs::create_dir_all(&gt_dir).unwrap();
+    let gt = box_surface();
+    splatkit::io::write_output(&gt_dir.join("Barn.ply"), |w| {
+        write_points(w, &cloud(&gt), Format::BinaryLittleEndian)
+    })
+    .unwrap();
+    let crop = CropVolume {
+        orthogonal_axis: Axis::Z,
+        axis_min: -0.1,
+        axis_max: 0.5,
+        bounding_polygon: vec![
+            [-0.1, -0.1, 0.0],
+            [0.8, -0.1, 0.0],
+            [0.8, 0.6, 0.0],
+            [-0.1, 0.6, 0.0],
+        ],
+    };
+    write_crop_json(&gt_dir.join("Barn.json"), &crop).unwrap();
+    std::fs::write(
+        gt_dir.join("Barn_trans.txt"),
+        "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n",
+    )
+    .unwrap();
+    let centres: Vec<[f64; 3]> = (0..30)
+        .map(|i| {
+            let a = i as f64 / 30.0 * std::f64::consts::TAU;
+            [
+                0.3 + 2.0 * a.cos(),
+                0.2 + 2.0 * a.sin(),
+                1.0 + 0.1 * (3.0 * a).sin(),
+            ]
+        })
+        .collect();
+    write_log(
+        &gt_dir.join("Barn_COLMAP_SfM.log"),
+        &centres.iter().map(|&c| pose(c)).collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let rec_log = tmp.path().join("rec.log");
+    write_log(
+        &rec_log,
+        &centres
+            .iter()
+            .map(|&c| pose(similarity(c)))
+            .collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let rec: Vec<[f64; 3]> = gt.iter().map(|&p| similarity(p)).collect();
+    let rec_ply = tmp.path().join("rec.ply");
+    splatkit::io::write_output(&rec_ply, |w| {
+        write_points(w, &cloud(&rec), Format::BinaryLittleEndian)
+    })
+    .unwrap();
+
+    let plot = tmp.path().join("pr.png");
+    let vis = tmp.path().join("vis");
+    let out = Command::cargo_bin("chamfer")
+        .unwrap()
+        .args(["--protocol", "tnt", "--scene", "Barn", "--gt-dir"])
+        .arg(&gt_dir)
+        .arg("--traj")
+        .arg(&rec_log)
+        .arg(&rec_ply)
+        .arg("--plot")
+        .arg(&plot)
+        .arg("--vis-dir")
+        .arg(&vis)
+        .args(["--json", "-q"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["tau"], TAU);
+    assert_eq!(v["precision"], 1.0);
+    assert_eq!(v["recall"], 1.0);
+    assert_eq!(v["fscore"], 1.0);
+    // The recovered transform maps the reconstruction back: scale 1/2 on the
+    // rotation block (row norms), to the f32 rounding of the input files.
+    let t = &v["transformation"];
+    let row_norm = |i: usize| {
+        (0..3)
+            .map(|j| t[i][j].as_f64().unwrap().powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    for i in 0..3 {
+        assert!((row_norm(i) - 0.5).abs() < 1e-6, "row {i}: {}", row_norm(i));
+    }
+    assert!(std::fs::read(&plot).unwrap().starts_with(b"\x89PNG"));
+    assert!(vis.join("Barn.precision.ply").exists() && vis.join("Barn.recall.ply").exists());
+
+    // Missing ground-truth files are named.
+    std::fs::remove_file(gt_dir.join("Barn_trans.txt")).unwrap();
+    Command::cargo_bin("chamfer")
+        .unwrap()
+        .args(["--protocol", "tnt", "--scene", "Barn", "--gt-dir"])
+        .arg(&gt_dir)
+        .arg("--traj")
+        .arg(&rec_log)
+        .arg(&rec_ply)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("Barn_trans.txt"));
+}
