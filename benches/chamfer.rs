@@ -150,6 +150,41 @@ fn main() {
         r.mean_s2d
     );
 
+    // Seed spread: the shuffle before downsampling is the only randomness.
+    let overall: Vec<f64> = (1..=4u64)
+        .map(|seed| {
+            dtu_from_files(
+                &DtuFiles {
+                    pred: &pred_path,
+                    dataset_dir: &root,
+                    scan: 24,
+                    pcd: false,
+                    cull: None,
+                },
+                &DtuParams {
+                    seed,
+                    ..DtuParams::default()
+                },
+            )
+            .unwrap()
+            .report
+            .overall
+        })
+        .chain([r.overall])
+        .collect();
+    let mean = overall.iter().sum::<f64>() / overall.len() as f64;
+    let (lo, hi) = overall
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
+    println!(
+        "dtu seeds 0..4: overall mean {mean:.6}, range {:.6}..{:.6} ({:.4} % of the mean)",
+        lo,
+        hi,
+        (hi - lo) / mean * 100.0
+    );
+
     let n = (10_000_000.0 * scale) as usize;
     let a = Cloud {
         points: fibonacci(n, 1.0, [0.0; 3], 0.001, 2),

@@ -107,29 +107,38 @@ pub struct DtuVis {
 
 /// Runs the protocol. `stl` are the GT points (mm), `obs` the ObsMask, `plane`
 /// the ground plane `P`.
+/// The k-d tree of the STL points is built while the prediction is sampled
+/// and thinned (the two share the rayon pool), and the tree of `data_in`
+/// while the accuracy distances are computed.
 pub fn evaluate_dtu(
     pred: &DtuPrediction,
     stl: &[[f64; 3]],
-    stl_index: &NnIndex,
     obs: &ObsMask,
     plane: [f64; 4],
     params: &DtuParams,
 ) -> Result<DtuReport> {
-    let points = match pred {
-        DtuPrediction::Mesh { vertices, faces } => {
-            dtu_mesh_points_par(vertices, faces, params.density)?
-        }
-        DtuPrediction::Points(p) => p.to_vec(),
-    };
-    // Non-finite points cannot be measured: they are dropped before anything
-    // else (the reference would propagate NaN into its means).
-    let points: Vec<[f64; 3]> = points
-        .into_iter()
-        .filter(|p| p.iter().all(|c| c.is_finite()))
-        .collect();
-    let order = seeded_permutation(points.len(), params.seed);
-    let kept = greedy_radius_downsample(&points, &order, params.density)?;
-    let data_down: Vec<[f64; 3]> = kept.iter().map(|&i| points[i]).collect();
+    let (stl_index, sampled) = rayon::join(
+        || NnIndex::new(stl),
+        || -> Result<(usize, Vec<[f64; 3]>)> {
+            let points = match pred {
+                DtuPrediction::Mesh { vertices, faces } => {
+                    dtu_mesh_points_par(vertices, faces, params.density)?
+                }
+                DtuPrediction::Points(p) => p.to_vec(),
+            };
+            // Non-finite points cannot be measured: they are dropped before
+            // anything else (the reference would propagate NaN into its means).
+            let points: Vec<[f64; 3]> = points
+                .into_iter()
+                .filter(|p| p.iter().all(|c| c.is_finite()))
+                .collect();
+            let order = seeded_permutation(points.len(), params.seed);
+            let kept = greedy_radius_downsample(&points, &order, params.density)?;
+            Ok((points.len(), kept.iter().map(|&i| points[i]).collect()))
+        },
+    );
+    let stl_index = stl_index?;
+    let (points_sampled, data_down) = sampled?;
     let in_bb: Vec<bool> = data_down
         .iter()
         .map(|&p| bb_filter(p, &obs.bb, params.patch))
@@ -152,7 +161,11 @@ pub fn evaluate_dtu(
         .map(|(p, _)| *p)
         .collect();
 
-    let d2s = stl_index.nearest_distances(&data_in_obs);
+    let (d2s, data_in_index) = rayon::join(
+        || stl_index.nearest_distances(&data_in_obs),
+        || NnIndex::new(&data_in),
+    );
+    let data_in_index = data_in_index?;
     let (mean_d2s, d2s_used) = mean_below(&d2s, params.max_dist);
 
     let above: Vec<bool> = stl
@@ -165,7 +178,6 @@ pub fn evaluate_dtu(
         .filter(|(_, a)| **a)
         .map(|(p, _)| *p)
         .collect();
-    let data_in_index = NnIndex::new(&data_in)?;
     let s2d = data_in_index.nearest_distances(&stl_above);
     let (mean_s2d, s2d_used) = mean_below(&s2d, params.max_dist);
 
@@ -188,7 +200,7 @@ pub fn evaluate_dtu(
         mean_d2s,
         mean_s2d,
         overall: (mean_d2s + mean_s2d) / 2.0,
-        points_sampled: points.len(),
+        points_sampled,
         points_down: data_down.len(),
         points_in_bb: data_in.len(),
         points_in_obs: data_in_obs.len(),

@@ -224,8 +224,9 @@ pub fn seeded_permutation(n: usize, seed: u64) -> Vec<usize> {
 /// within r was dropped: the lexicographically-first maximal independent set
 /// of the "within r" graph. It is computed in rounds over the points sorted
 /// by 4r-block along a Morton curve (so neighbours are close in memory): in a
-/// round, an undecided point with a kept lower-rank neighbour is dropped, one
-/// whose lower-rank neighbours are all dropped is kept, the others wait. Each
+/// round, an undecided point is dropped when the first non-dropped
+/// lower-rank neighbour it meets is kept, waits when that neighbour is still
+/// undecided, and is kept when it has none. Each
 /// round reads only the state at its start, so it runs in parallel and
 /// deterministically. For a random walk order the rounds shrink fast; after
 /// [`MAX_ROUNDS`] whatever is left is finished one point at a time in walk
@@ -329,7 +330,6 @@ mod rounds {
                 let reach = r + (r + p[a].abs()) * 1e-9;
                 ((p[a] - reach) / size).floor() as i64..=((p[a] + reach) / size).floor() as i64
             };
-            let mut waiting = false;
             for bx in range(0) {
                 for by in range(1) {
                     for bz in range(2) {
@@ -341,15 +341,15 @@ mod rounds {
                             if st == DROPPED || rk[j] >= rp || dist2(p, &pts[j]) > r2 {
                                 continue;
                             }
-                            if st == KEPT {
-                                return DROPPED;
-                            }
-                            waiting = true;
+                            // A kept lower-rank neighbour drops p; an undecided
+                            // one makes p wait a round (stopping here may only
+                            // postpone p's decision, never change it).
+                            return if st == KEPT { DROPPED } else { UNDECIDED };
                         }
                     }
                 }
             }
-            if waiting { UNDECIDED } else { KEPT }
+            KEPT
         };
         let mut undecided: Vec<u32> = (0..n as u32).collect();
         for _ in 0..MAX_ROUNDS {

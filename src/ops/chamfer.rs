@@ -488,7 +488,6 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         &read_input(&stl_path)?,
     )?;
     let stl: Vec<[f64; 3]> = f64_points(&stl.positions);
-    let stl_index = NnIndex::new(&stl).with_context(|| format!("{}", stl_path.display()))?;
     let obs = crate::io::dtu::read_obs_mask(&ds.obs_mask_path(f.scan))?;
     let plane = crate::io::dtu::read_plane(&ds.plane_path(f.scan))?;
     let pred = if f.pcd {
@@ -499,7 +498,7 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
             faces: &faces,
         }
     };
-    let report = evaluate_dtu(&pred, &stl, &stl_index, &obs, plane, params)?;
+    let report = evaluate_dtu(&pred, &stl, &obs, plane, params)?;
     Ok(DtuRun {
         report,
         culled,
