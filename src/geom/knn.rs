@@ -78,26 +78,12 @@ impl NnIndex {
     }
 
     /// Nearest (index, distance) for each query, in query order.
-    ///
-    /// Queries are answered in Morton (Z-curve) order of their positions, so
-    /// consecutive queries walk the same part of the tree and stay in cache
-    /// (several times faster than a random order, such as DTU's shuffled
-    /// points); the results are written back to the query's position.
     pub fn nearest_all(&self, queries: &[[f64; 3]]) -> Vec<Option<(usize, f64)>> {
-        if self.tree.is_none() {
-            return vec![None; queries.len()];
-        }
-        let order = morton_order(queries);
-        let answers: Vec<Option<(usize, f64)>> = order
+        queries
             .par_iter()
             .with_min_len(4096)
-            .map(|&i| self.nearest(&queries[i as usize]))
-            .collect();
-        let mut out = vec![None; queries.len()];
-        for (&i, a) in order.iter().zip(answers) {
-            out[i as usize] = a;
-        }
-        out
+            .map(|q| self.nearest(q))
+            .collect()
     }
 
     /// Indices of the points within `radius` of `q` (boundary included),
@@ -117,54 +103,6 @@ impl NnIndex {
         v.sort_unstable();
         v
     }
-}
-
-/// Spreads the low 21 bits of `x` to every third bit.
-fn spread(mut x: u64) -> u64 {
-    x &= 0x1f_ffff;
-    x = (x | x << 32) & 0x1f_0000_0000_ffff;
-    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-    x = (x | x << 2) & 0x1249_2492_4924_9249;
-    x
-}
-
-/// Indices of `points` sorted along a Z-curve over their bounding box
-/// (2^21 cells per axis; non-finite points go last). Ties keep input order,
-/// so the order is deterministic.
-pub fn morton_order(points: &[[f64; 3]]) -> Vec<u32> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points.iter().filter(|p| p.iter().all(|c| c.is_finite())) {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
-    let cells = ((1u64 << 21) - 1) as f64;
-    let scale: [f64; 3] = [0, 1, 2].map(|a| {
-        if hi[a] > lo[a] {
-            cells / (hi[a] - lo[a])
-        } else {
-            0.0
-        }
-    });
-    let mut keyed: Vec<(u64, u32)> = points
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let key = if p.iter().all(|c| c.is_finite()) {
-                let c = |a: usize| ((p[a] - lo[a]) * scale[a]) as u64;
-                spread(c(0)) | spread(c(1)) << 1 | spread(c(2)) << 2
-            } else {
-                u64::MAX
-            };
-            (key, i as u32)
-        })
-        .collect();
-    keyed.par_sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 #[cfg(test)]
