@@ -34,11 +34,7 @@ $(OUT)/scan%.json: $(MESHES)/scan%.ply
 
 # One row per scan (scan, mean_d2s, mean_s2d, overall) and the mean of each column.
 $(OUT)/summary.tsv: $(JSONS)
-	@python3 -c 'import json,sys; rows=[(p.split("scan")[-1][:-5], json.load(open(p))) for p in sys.argv[1:]]; \
-	print("scan\tmean_d2s\tmean_s2d\toverall"); \
-	[print(f"{s}\t{r[\"mean_d2s\"]:.4f}\t{r[\"mean_s2d\"]:.4f}\t{r[\"overall\"]:.4f}") for s, r in rows]; \
-	n=len(rows); print("mean\t" + "\t".join(f"{sum(r[k] for _, r in rows)/n:.4f}" for k in ("mean_d2s","mean_s2d","overall")))' \
-	    $(JSONS) | tee $@
+	python3 $(dir $(lastword $(MAKEFILE_LIST)))dtu_summary.py $(JSONS) | tee $@
 
 clean:
 	rm -rf $(OUT)
