@@ -64,6 +64,20 @@ pub struct GenericParams {
     pub seed: u64,
 }
 
+impl GenericParams {
+    /// Points as they are: a point cloud's points, a mesh's vertices.
+    pub fn vertices() -> Self {
+        GenericParams {
+            sample: SampleMode::Vertices,
+            count: 0,
+            spacing: 0.0,
+            thresholds: Vec::new(),
+            max_dist: None,
+            seed: 0,
+        }
+    }
+}
+
 /// Precision / recall / F-score at one threshold.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct FScore {
@@ -452,17 +466,7 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         if f.cull.is_some() {
             bail!("--cull applies to meshes; it cannot be combined with --pcd");
         }
-        let pc = load_cloud(
-            f.pred,
-            &GenericParams {
-                sample: SampleMode::Vertices,
-                count: 0,
-                spacing: params.density,
-                thresholds: vec![],
-                max_dist: None,
-                seed: 0,
-            },
-        )?;
+        let pc = load_cloud(f.pred, &GenericParams::vertices())?;
         (pc.points, Vec::new(), None)
     } else {
         let m = load_mesh(f.pred)?;
@@ -636,18 +640,7 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
         let m = load_mesh(pred_path)?;
         vertices_and_face_centroids(&f64_points(&m.vertices), &m.faces)?
     } else {
-        load_cloud(
-            pred_path,
-            &GenericParams {
-                sample: SampleMode::Vertices,
-                count: 0,
-                spacing: 0.0,
-                thresholds: vec![],
-                max_dist: None,
-                seed: 0,
-            },
-        )?
-        .points
+        load_cloud(pred_path, &GenericParams::vertices())?.points
     };
     let gt = crate::io::ply::points::parse_points(
         &file(".ply").display().to_string(),
