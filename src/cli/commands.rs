@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::ops::{chamfer, demo, export_off, info, prune_triangles};
+use crate::ops::{chamfer, demo, export_off, info, poisson, prune_triangles};
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
 #[derive(Parser, Debug)]
@@ -32,6 +32,8 @@ pub enum Command {
     ExportOff(export_off::ExportOffArgs),
     /// Evaluate a surface: generic Chamfer / F-score, DTU or Tanks-and-Temples protocol.
     Chamfer(chamfer::ChamferArgs),
+    /// Screened Poisson reconstruction: oriented points to a mesh with per-vertex density.
+    Poisson(poisson::PoissonArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -44,6 +46,7 @@ pub fn splatkit_main() -> ! {
         Command::PruneTriangles(a) => prune_triangles::run(a),
         Command::ExportOff(a) => export_off::run(a),
         Command::Chamfer(a) => chamfer::run(a),
+        Command::Poisson(a) => poisson::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -90,4 +93,11 @@ single_command!(
     chamfer::ChamferArgs,
     chamfer::run,
     "Evaluate a surface: generic Chamfer / F-score, or the DTU and Tanks-and-Temples protocols."
+);
+single_command!(
+    poisson_main,
+    "poisson",
+    poisson::PoissonArgs,
+    poisson::run,
+    "Screened Poisson reconstruction: oriented points to a mesh with per-vertex density."
 );

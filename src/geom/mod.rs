@@ -3,6 +3,7 @@
 pub mod crop;
 pub mod downsample;
 pub mod knn;
+pub mod poisson;
 pub mod registration;
 pub mod sample;
 pub mod stats;

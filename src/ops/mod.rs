@@ -6,4 +6,5 @@ pub mod chamfer;
 pub mod demo;
 pub mod export_off;
 pub mod info;
+pub mod poisson;
 pub mod prune_triangles;

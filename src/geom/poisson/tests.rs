@@ -1,0 +1,379 @@
+//! Reconstruction of analytic shapes, generated here: the distance from every
+//! output vertex to the true surface is closed-form, so accuracy is measured
+//! exactly, in units of the finest cell.
+
+use rand::{RngExt, SeedableRng};
+use rustc_hash::FxHashMap;
+
+use super::*;
+
+/// A closed analytic surface: points, outward normals, distance function.
+pub(crate) enum Shape {
+    Sphere {
+        r: f64,
+    },
+    Torus {
+        big: f64,
+        small: f64,
+    },
+    /// Axis-aligned box with half-sides.
+    Cube {
+        half: [f64; 3],
+    },
+}
+
+impl Shape {
+    /// Unsigned distance from p to the surface.
+    pub(crate) fn distance(&self, p: [f64; 3]) -> f64 {
+        match self {
+            Shape::Sphere { r } => ((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() - r).abs(),
+            Shape::Torus { big, small } => {
+                let q = (p[0] * p[0] + p[1] * p[1]).sqrt() - big;
+                ((q * q + p[2] * p[2]).sqrt() - small).abs()
+            }
+            Shape::Cube { half } => {
+                let q: Vec<f64> = (0..3).map(|k| p[k].abs() - half[k]).collect();
+                let outside = q.iter().map(|v| v.max(0.0).powi(2)).sum::<f64>().sqrt();
+                let inside = q.iter().cloned().fold(f64::NEG_INFINITY, f64::max).min(0.0);
+                (outside + inside).abs()
+            }
+        }
+    }
+
+    /// `n` random area-uniform points with outward normals, positions
+    /// perturbed along the normal by N(0, noise²).
+    pub(crate) fn sample(&self, n: usize, noise: f64, seed: u64) -> PointCloud {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let gauss = move |rng: &mut rand_pcg::Pcg64Mcg| {
+            let u: f64 = rng.random::<f64>().max(1e-300);
+            let v: f64 = rng.random();
+            (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+        };
+        let mut pos = Vec::with_capacity(n);
+        let mut nrm = Vec::with_capacity(n);
+        while pos.len() < n {
+            let (p, nn): ([f64; 3], [f64; 3]) = match self {
+                Shape::Sphere { r } => {
+                    let z: f64 = rng.random::<f64>() * 2.0 - 1.0;
+                    let phi: f64 = rng.random::<f64>() * 2.0 * std::f64::consts::PI;
+                    let s = (1.0 - z * z).sqrt();
+                    let d = [s * phi.cos(), s * phi.sin(), z];
+                    ([d[0] * r, d[1] * r, d[2] * r], d)
+                }
+                Shape::Torus { big, small } => {
+                    let u: f64 = rng.random::<f64>() * 2.0 * std::f64::consts::PI;
+                    let v: f64 = rng.random::<f64>() * 2.0 * std::f64::consts::PI;
+                    // area element ∝ (R + r cos v): rejection sampling
+                    if rng.random::<f64>() * (big + small) > big + small * v.cos() {
+                        continue;
+                    }
+                    let d = [v.cos() * u.cos(), v.cos() * u.sin(), v.sin()];
+                    let c = [big * u.cos(), big * u.sin(), 0.0];
+                    (
+                        [
+                            c[0] + small * d[0],
+                            c[1] + small * d[1],
+                            c[2] + small * d[2],
+                        ],
+                        d,
+                    )
+                }
+                Shape::Cube { half } => {
+                    let areas = [half[1] * half[2], half[0] * half[2], half[0] * half[1]];
+                    let t: f64 = rng.random::<f64>() * (areas[0] + areas[1] + areas[2]);
+                    let axis = if t < areas[0] {
+                        0
+                    } else if t < areas[0] + areas[1] {
+                        1
+                    } else {
+                        2
+                    };
+                    let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
+                    let mut p = [0.0; 3];
+                    for k in 0..3 {
+                        p[k] = (rng.random::<f64>() * 2.0 - 1.0) * half[k];
+                    }
+                    p[axis] = sign * half[axis];
+                    let mut d = [0.0; 3];
+                    d[axis] = sign;
+                    (p, d)
+                }
+            };
+            let e = if noise > 0.0 {
+                noise * gauss(&mut rng)
+            } else {
+                0.0
+            };
+            pos.push([
+                (p[0] + e * nn[0]) as f32,
+                (p[1] + e * nn[1]) as f32,
+                (p[2] + e * nn[2]) as f32,
+            ]);
+            nrm.push([nn[0] as f32, nn[1] as f32, nn[2] as f32]);
+        }
+        PointCloud {
+            positions: pos,
+            normals: Some(nrm),
+            ..Default::default()
+        }
+    }
+}
+
+/// Edge-use counts: watertight means every undirected edge has exactly two
+/// faces, consistently oriented means each directed edge appears once.
+pub(crate) fn topology(m: &Mesh) -> (bool, bool, usize) {
+    let mut und: FxHashMap<(u32, u32), usize> = FxHashMap::default();
+    let mut dir: FxHashMap<(u32, u32), usize> = FxHashMap::default();
+    for f in &m.faces {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            *und.entry((a.min(b), a.max(b))).or_default() += 1;
+            *dir.entry((a, b)).or_default() += 1;
+        }
+    }
+    let watertight = und.values().all(|&c| c == 2);
+    let oriented = dir.values().all(|&c| c == 1);
+    // components over shared vertices (union-find)
+    let mut parent: Vec<u32> = (0..m.vertices.len() as u32).collect();
+    fn find(p: &mut [u32], mut x: u32) -> u32 {
+        while p[x as usize] != x {
+            p[x as usize] = p[p[x as usize] as usize];
+            x = p[x as usize];
+        }
+        x
+    }
+    for f in &m.faces {
+        for k in 1..3 {
+            let (a, b) = (find(&mut parent, f[0]), find(&mut parent, f[k]));
+            parent[a as usize] = b;
+        }
+    }
+    let mut roots: Vec<u32> = m.faces.iter().map(|f| find(&mut parent, f[0])).collect();
+    roots.sort_unstable();
+    roots.dedup();
+    (watertight, oriented, roots.len())
+}
+
+/// Signed volume (positive for outward-oriented closed meshes).
+pub(crate) fn signed_volume(m: &Mesh) -> f64 {
+    m.faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| m.vertices[i as usize].map(|x| x as f64));
+            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                / 6.0
+        })
+        .sum()
+}
+
+fn distances_in_cells(out: &PoissonOutput, shape: &Shape) -> (f64, f64) {
+    let cell = out.stats.cell_size;
+    let d: Vec<f64> = out
+        .mesh
+        .vertices
+        .iter()
+        .map(|v| shape.distance([v[0] as f64, v[1] as f64, v[2] as f64]) / cell)
+        .collect();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    let max = d.iter().cloned().fold(0.0, f64::max);
+    (mean, max)
+}
+
+fn params(depth: u32) -> PoissonParams {
+    PoissonParams {
+        depth,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn sphere_is_accurate_watertight_and_outward() {
+    let shape = Shape::Sphere { r: 1.0 };
+    let pc = shape.sample(60_000, 0.0, 1);
+    let out = reconstruct(&pc, &params(7)).unwrap();
+    let (mean, max) = distances_in_cells(&out, &shape);
+    let (wt, or, comps) = topology(&out.mesh);
+    eprintln!(
+        "sphere d7: {:?} mean {mean:.4} max {max:.4} cells, V {} F {}",
+        out.stats.seconds,
+        out.mesh.vertices.len(),
+        out.mesh.faces.len()
+    );
+    assert!(
+        wt && or && comps == 1,
+        "watertight {wt} oriented {or} components {comps}"
+    );
+    assert!(signed_volume(&out.mesh) > 0.0);
+    assert!(mean <= 0.1, "mean {mean}");
+    assert!(max <= 0.5, "max {max}");
+}
+
+/// Closed shapes with and without noise. Bounds in finest-cell units:
+/// without noise the iso-surface of the screened solution sits within a few
+/// hundredths of a cell of the samples (measured: mean 0.006 torus, 0.018
+/// box), so the bound is 0.05 mean, half the 0.1 target; max 0.25
+/// (torus, measured 0.04) and 0.5 (box, 0.27: the smooth basis rounds its
+/// edges and corners, which are not in the FEM space). With noise σ = 0.25
+/// cell along the normal the solution averages the noise: bounds 0.15 mean,
+/// 1.0 max (measured 0.04–0.05 and 0.2–0.42).
+#[test]
+fn closed_shapes_torus_and_box_with_and_without_noise() {
+    let shapes = [
+        (
+            "torus",
+            Shape::Torus {
+                big: 1.0,
+                small: 0.35,
+            },
+            0.1,
+            0.6,
+        ),
+        (
+            "box",
+            Shape::Cube {
+                half: [1.0, 0.7, 0.5],
+            },
+            0.05,
+            0.5,
+        ),
+    ];
+    for (name, shape, mean_bound, max_bound) in shapes {
+        let (mean_bound, max_bound): (f64, f64) = (mean_bound, max_bound);
+        for noisy in [false, true] {
+            let depth = 7;
+            let clean = shape.sample(80_000, 0.0, 3);
+            let extent = clean.positions.iter().fold(0.0f64, |m, p| {
+                m.max(p.iter().map(|c| c.abs() as f64).fold(0.0, f64::max))
+            });
+            let cell = 2.0 * extent * 1.1 / (1 << depth) as f64;
+            let noise = if noisy { 0.25 * cell } else { 0.0 };
+            let pc = shape.sample(80_000, noise, 3);
+            let out = reconstruct(&pc, &params(depth)).unwrap();
+            let (mean, max) = distances_in_cells(&out, &shape);
+            let (wt, or, comps) = topology(&out.mesh);
+            eprintln!("{name} noisy={noisy}: mean {mean:.4} max {max:.4} cells");
+            assert!(
+                wt && or && comps == 1,
+                "{name}: watertight {wt} oriented {or} comps {comps}"
+            );
+            assert!(signed_volume(&out.mesh) > 0.0, "{name}: outward");
+            let (mb, xb) = if noisy {
+                (0.15, 1.0)
+            } else {
+                (mean_bound, max_bound)
+            };
+            assert!(
+                mean <= mb && max <= xb,
+                "{name} noisy={noisy}: mean {mean} max {max}"
+            );
+        }
+    }
+}
+
+/// Flipping every input normal flips the output orientation (χ changes
+/// sides): same surface, negative signed volume.
+#[test]
+fn flipped_normals_flip_orientation() {
+    let shape = Shape::Sphere { r: 1.0 };
+    let mut pc = shape.sample(30_000, 0.0, 5);
+    let out = reconstruct(&pc, &params(6)).unwrap();
+    for n in pc.normals.as_mut().unwrap() {
+        *n = [-n[0], -n[1], -n[2]];
+    }
+    let flipped = reconstruct(&pc, &params(6)).unwrap();
+    let (v0, v1) = (signed_volume(&out.mesh), signed_volume(&flipped.mesh));
+    assert!(v0 > 0.0 && v1 < 0.0, "{v0} {v1}");
+    // Same surface up to solver round-off: volumes agree to 1%.
+    assert!((v0 + v1).abs() < 0.01 * v0, "{v0} {v1}");
+    let (wt, or, comps) = topology(&flipped.mesh);
+    assert!(wt && or && comps == 1);
+}
+
+/// Results do not depend on the thread count (fixed reduction orders).
+#[test]
+fn deterministic_across_thread_counts() {
+    let pc = Shape::Torus {
+        big: 1.0,
+        small: 0.3,
+    }
+    .sample(20_000, 0.01, 9);
+    let run = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| reconstruct(&pc, &params(6)).unwrap().mesh)
+    };
+    let (a, b) = (run(1), run(3));
+    assert_eq!(a.vertices, b.vertices);
+    assert_eq!(a.faces, b.faces);
+    assert_eq!(a.scalar("density"), b.scalar("density"));
+}
+
+/// Degenerate inputs give errors, never panics or hangs.
+#[test]
+fn degenerate_inputs_are_clear_errors() {
+    let cloud = |pos: Vec<[f32; 3]>, nrm: Vec<[f32; 3]>| PointCloud {
+        positions: pos,
+        normals: Some(nrm),
+        ..Default::default()
+    };
+    let up = [0.0f32, 0.0, 1.0];
+    let cases = [
+        (
+            "few",
+            cloud(
+                vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                vec![up; 3],
+            ),
+            "at least 4",
+        ),
+        (
+            "collinear",
+            cloud(
+                (0..50).map(|i| [i as f32, 2.0 * i as f32, 0.0]).collect(),
+                vec![up; 50],
+            ),
+            "collinear",
+        ),
+        (
+            "identical",
+            cloud(vec![[1.0, 2.0, 3.0]; 10], vec![up; 10]),
+            "identical",
+        ),
+        (
+            "zero normals",
+            cloud(
+                (0..10).map(|i| [i as f32, (i * i) as f32, 0.0]).collect(),
+                vec![[0.0; 3]; 10],
+            ),
+            "at least 4",
+        ),
+        (
+            "nan",
+            cloud(vec![[f32::NAN, 0.0, 0.0]; 10], vec![up; 10]),
+            "at least 4",
+        ),
+    ];
+    for (name, pc, want) in cases {
+        let e = reconstruct(&pc, &params(6)).expect_err(name).to_string();
+        assert!(e.contains(want), "{name}: {e}");
+    }
+    let no_normals = PointCloud {
+        positions: vec![[0.0; 3]; 10],
+        ..Default::default()
+    };
+    assert!(
+        reconstruct(&no_normals, &params(6))
+            .unwrap_err()
+            .to_string()
+            .contains("no normals")
+    );
+    // NaN points among good ones are dropped and counted.
+    let mut pc = Shape::Sphere { r: 1.0 }.sample(5_000, 0.0, 2);
+    pc.positions[7] = [f32::NAN, 0.0, 0.0];
+    pc.normals.as_mut().unwrap()[8] = [0.0; 3];
+    let out = reconstruct(&pc, &params(5)).unwrap();
+    assert_eq!(out.stats.dropped_points, 2);
+}
