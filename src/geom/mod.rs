@@ -3,8 +3,11 @@
 pub mod crop;
 pub mod downsample;
 pub mod knn;
+pub mod outliers;
 pub mod poisson;
 pub mod registration;
 pub mod sample;
+pub mod scene_split;
 pub mod stats;
+pub mod trim;
 pub mod voxel;

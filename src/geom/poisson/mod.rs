@@ -104,6 +104,11 @@ pub struct PoissonStats {
 pub struct PoissonOutput {
     pub mesh: Mesh,
     pub stats: PoissonStats,
+    /// Per vertex, the depth at which the solver represents the surface
+    /// there ([`system::support_level`]); the extraction itself is uniform
+    /// at the finest depth, so a vertex stands for 4^(support − depth) of
+    /// the vertices an octree-adaptive extraction would place.
+    pub support_depth: Vec<u8>,
 }
 
 /// Checks for the degenerate inputs a Poisson solve cannot use.
@@ -155,14 +160,6 @@ pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOut
     let mut clock = Instant::now();
     let mut lap = |name: &str, secs: &mut Vec<(String, f64)>| {
         secs.push((name.to_string(), clock.elapsed().as_secs_f64()));
-        if std::env::var("SK_MEM").is_ok() {
-            let st = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-            let l: Vec<&str> = st
-                .lines()
-                .filter(|l| l.starts_with("VmRSS") || l.starts_with("VmHWM"))
-                .collect();
-            eprintln!("{name}: {l:?}");
-        }
         clock = Instant::now();
     };
     let normals = cloud.normals.as_ref().ok_or_else(|| {
@@ -261,6 +258,11 @@ pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOut
             linear: prm.linear_fit,
         },
     );
+    let support: Vec<u8> = iso_mesh
+        .vertices
+        .par_iter()
+        .map(|u| system::support_level(&levels, *u) as u8)
+        .collect();
     drop(levels);
     lap("extract", &mut secs);
 
@@ -314,7 +316,11 @@ pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOut
         faces: mesh.faces.len(),
         seconds: secs,
     };
-    Ok(PoissonOutput { mesh, stats })
+    Ok(PoissonOutput {
+        mesh,
+        stats,
+        support_depth: support,
+    })
 }
 
 /// Vertex colours: inverse-distance mean of the 4 nearest samples' colours.
