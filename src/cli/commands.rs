@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::ops::{chamfer, demo, export_off, info, poisson, prune_triangles};
+use crate::ops::{chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles};
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
 #[derive(Parser, Debug)]
@@ -34,6 +34,10 @@ pub enum Command {
     Chamfer(chamfer::ChamferArgs),
     /// Screened Poisson reconstruction: oriented points to a mesh with per-vertex density.
     Poisson(poisson::PoissonArgs),
+    /// Quadric-error decimation to a stated face or vertex count.
+    Decimate(decimate::DecimateArgs),
+    /// Mesh clean-up: duplicates, degenerate faces, non-manifold edges, small components.
+    Clean(clean::CleanArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -47,6 +51,8 @@ pub fn splatkit_main() -> ! {
         Command::ExportOff(a) => export_off::run(a),
         Command::Chamfer(a) => chamfer::run(a),
         Command::Poisson(a) => poisson::run(a),
+        Command::Decimate(a) => decimate::run(a),
+        Command::Clean(a) => clean::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -100,4 +106,18 @@ single_command!(
     poisson::PoissonArgs,
     poisson::run,
     "Screened Poisson reconstruction: oriented points to a mesh with per-vertex density."
+);
+single_command!(
+    decimate_main,
+    "decimate",
+    decimate::DecimateArgs,
+    decimate::run,
+    "Quadric-error decimation of a mesh to a stated face or vertex count."
+);
+single_command!(
+    clean_main,
+    "clean",
+    clean::CleanArgs,
+    clean::run,
+    "Mesh clean-up: duplicates, degenerate faces, non-manifold edges, small components."
 );

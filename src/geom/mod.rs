@@ -1,6 +1,8 @@
 //! Reusable geometry: nearest-neighbour index, surface sampling, point
 //! downsampling, distance statistics, rigid/similarity registration, crop volumes.
+pub mod clean;
 pub mod crop;
+pub mod decimate;
 pub mod downsample;
 pub mod knn;
 pub mod outliers;

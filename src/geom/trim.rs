@@ -15,6 +15,7 @@
 
 use rustc_hash::FxHashMap;
 
+use crate::geom::clean::{filter_faces, remove_unreferenced_vertices};
 use crate::model::Mesh;
 use crate::{Error, Result};
 
@@ -49,72 +50,8 @@ fn keep_vertices(mut mesh: Mesh, keep_v: &[bool]) -> (Mesh, usize) {
         .map(|f| f.iter().all(|&v| keep_v[v as usize]))
         .collect();
     filter_faces(&mut mesh, &keep_f);
-    let removed = compact_vertices(&mut mesh);
+    let removed = remove_unreferenced_vertices(&mut mesh);
     (mesh, removed)
-}
-
-/// Removes faces where `keep` is false, with their per-face attributes.
-pub fn filter_faces(mesh: &mut Mesh, keep: &[bool]) {
-    let mut it = keep.iter();
-    mesh.faces
-        .retain(|_| *it.next().expect("one flag per face"));
-    if let Some(c) = &mut mesh.face_colors {
-        let mut it = keep.iter();
-        c.retain(|_| *it.next().expect("one flag per face"));
-    }
-    for p in &mut mesh.extras.item {
-        p.data = p.data.filter(keep);
-    }
-}
-
-/// Drops vertices no face references, reindexing faces and every per-vertex
-/// attribute. Returns how many were dropped.
-pub fn compact_vertices(mesh: &mut Mesh) -> usize {
-    let n = mesh.vertices.len();
-    let mut used = vec![false; n];
-    for f in &mesh.faces {
-        for &v in f {
-            used[v as usize] = true;
-        }
-    }
-    let mut map = vec![u32::MAX; n];
-    let mut idx = Vec::new();
-    for (i, &u) in used.iter().enumerate() {
-        if u {
-            map[i] = idx.len() as u32;
-            idx.push(i);
-        }
-    }
-    if idx.len() == n {
-        return 0;
-    }
-    for f in &mut mesh.faces {
-        for v in f.iter_mut() {
-            *v = map[*v as usize];
-        }
-    }
-    gather_vertices(mesh, &idx);
-    n - idx.len()
-}
-
-/// Replaces every per-vertex array by its rows `idx`.
-fn gather_vertices(mesh: &mut Mesh, idx: &[usize]) {
-    fn g<T: Copy>(v: &[T], idx: &[usize]) -> Vec<T> {
-        idx.iter().map(|&i| v[i]).collect()
-    }
-    mesh.vertices = g(&mesh.vertices, idx);
-    if let Some(n) = &mut mesh.normals {
-        *n = g(n, idx);
-    }
-    if let Some(c) = &mut mesh.vertex_colors {
-        *c = g(c, idx);
-    }
-    for (_, s) in &mut mesh.vertex_scalars {
-        *s = g(s, idx);
-    }
-    for p in &mut mesh.extras.vertex {
-        p.data = p.data.gather(idx);
-    }
 }
 
 /// Weighted linear quantile: value i counts `weights[i]` times (weights ≤ 0
@@ -300,7 +237,7 @@ pub fn trim_threshold(mesh: Mesh, name: &str, t: f64) -> Result<(Mesh, i64)> {
             p.data = p.data.gather(&idx);
         }
     }
-    compact_vertices(&mut m);
+    remove_unreferenced_vertices(&mut m);
     let after = m.faces.len() as i64;
     Ok((m, faces_before - after))
 }

@@ -115,3 +115,28 @@ pub fn write_soup_as(w: &mut dyn Write, soup: &TriangleSoup, f: FileFormat) -> R
         ))),
     }
 }
+
+/// Writes a mesh as PLY (binary little-endian, every attribute kept), OBJ,
+/// OFF (COFF with vertex colours) or glTF/GLB.
+pub fn write_mesh_as(w: &mut dyn Write, mesh: &Mesh, f: FileFormat) -> Result<()> {
+    match f {
+        FileFormat::Ply => ply::mesh::write_mesh(w, mesh, Format::BinaryLittleEndian),
+        FileFormat::Obj => obj::write_obj(w, mesh, &obj::ObjWriteOptions::default()),
+        FileFormat::Off => off::write_off(w, mesh, &off::OffWriteOptions::for_mesh(mesh)),
+        FileFormat::Glb | FileFormat::Gltf => gltf::write_gltf(
+            w,
+            mesh,
+            &gltf::GltfWriteOptions {
+                container: if f == FileFormat::Gltf {
+                    gltf::GltfContainer::Gltf
+                } else {
+                    gltf::GltfContainer::Glb
+                },
+            },
+        ),
+        other => Err(Error::invalid(format!(
+            "a mesh can be written as ply, obj, off, glb or gltf, not {}",
+            other.name()
+        ))),
+    }
+}

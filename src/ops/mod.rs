@@ -3,6 +3,8 @@
 //! files, progress and output.
 
 pub mod chamfer;
+pub mod clean;
+pub mod decimate;
 pub mod demo;
 pub mod export_off;
 pub mod info;

@@ -1,0 +1,185 @@
+//! `clean`: mesh clean-up ([`crate::geom::clean`]) in the order SuGaR's V2
+//! code runs Open3D's (duplicate vertices, degenerate faces, duplicate
+//! faces, non-manifold edges), then unreferenced vertices and the optional
+//! connected-component filters.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+use serde_json::json;
+
+use crate::cli::{Common, shown};
+use crate::geom::clean::{
+    ComponentFilter, filter_components, merge_duplicate_vertices, remove_degenerate_faces,
+    remove_duplicate_faces, remove_non_manifold_edges, remove_unreferenced_vertices,
+};
+use crate::io::any::{load_mesh, output_format, write_mesh_as};
+use crate::io::detect::FileFormat;
+use crate::model::Mesh;
+
+/// Arguments of `clean`.
+#[derive(Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  clean mesh.ply -o clean.ply                          # all default steps
+  poisson pts.ply -o - | clean - --keep-largest 1 -o object.ply
+  clean scan.obj --no-nonmanifold --min-component-faces 100 -o scan_clean.obj --json=r.json")]
+pub struct CleanArgs {
+    /// Input mesh (PLY, OBJ, OFF, glTF/GLB); `-` = stdin.
+    #[arg(default_value = "-")]
+    pub input: PathBuf,
+    /// Output mesh (format from the extension; PLY on stdout); `-` = stdout.
+    #[arg(short, long, default_value = "-")]
+    pub output: PathBuf,
+    /// Keep vertices with identical positions apart.
+    #[arg(long)]
+    pub no_merge: bool,
+    /// Keep faces with a repeated vertex or zero area.
+    #[arg(long)]
+    pub no_degenerate: bool,
+    /// Keep faces that repeat another face's vertices.
+    #[arg(long)]
+    pub no_duplicates: bool,
+    /// Keep edges with more than two faces.
+    #[arg(long)]
+    pub no_nonmanifold: bool,
+    /// Keep vertices no face uses.
+    #[arg(long)]
+    pub no_unreferenced: bool,
+    /// Keep only the N connected components with the most faces.
+    #[arg(long, value_name = "N")]
+    pub keep_largest: Option<usize>,
+    /// Drop connected components with fewer faces.
+    #[arg(long, value_name = "N")]
+    pub min_component_faces: Option<usize>,
+    /// Drop connected components with less than this fraction of the total area.
+    #[arg(long, value_name = "FRAC")]
+    pub min_component_area: Option<f64>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// Which steps to run.
+#[derive(Clone, Copy, Debug)]
+pub struct CleanSteps {
+    pub merge: bool,
+    pub degenerate: bool,
+    pub duplicates: bool,
+    pub nonmanifold: bool,
+    pub unreferenced: bool,
+    pub components: ComponentFilter,
+}
+
+impl Default for CleanSteps {
+    fn default() -> Self {
+        CleanSteps {
+            merge: true,
+            degenerate: true,
+            duplicates: true,
+            nonmanifold: true,
+            unreferenced: true,
+            components: ComponentFilter::default(),
+        }
+    }
+}
+
+/// What each step removed.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct CleanReport {
+    pub vertices_before: usize,
+    pub faces_before: usize,
+    pub merged_vertices: usize,
+    pub degenerate_faces: usize,
+    pub duplicate_faces: usize,
+    pub nonmanifold_faces: usize,
+    pub unreferenced_vertices: usize,
+    pub components: usize,
+    pub removed_components: usize,
+    pub removed_component_faces: usize,
+    pub vertices_after: usize,
+    pub faces_after: usize,
+}
+
+/// Runs the steps on a mesh.
+pub fn clean_mesh(mesh: &mut Mesh, s: &CleanSteps) -> CleanReport {
+    let mut r = CleanReport {
+        vertices_before: mesh.vertices.len(),
+        faces_before: mesh.faces.len(),
+        ..Default::default()
+    };
+    if s.merge {
+        r.merged_vertices = merge_duplicate_vertices(mesh);
+    }
+    if s.degenerate {
+        r.degenerate_faces = remove_degenerate_faces(mesh);
+    }
+    if s.duplicates {
+        r.duplicate_faces = remove_duplicate_faces(mesh);
+    }
+    if s.nonmanifold {
+        r.nonmanifold_faces = remove_non_manifold_edges(mesh);
+    }
+    let c = &s.components;
+    if c.keep_largest.is_some() || c.min_faces.is_some() || c.min_area_fraction.is_some() {
+        let (n, rc, rf) = filter_components(mesh, c);
+        r.components = n;
+        r.removed_components = rc;
+        r.removed_component_faces = rf;
+    }
+    if s.unreferenced {
+        r.unreferenced_vertices = remove_unreferenced_vertices(mesh);
+    }
+    r.vertices_after = mesh.vertices.len();
+    r.faces_after = mesh.faces.len();
+    r
+}
+
+/// `clean` entry point.
+pub fn run(args: CleanArgs) -> anyhow::Result<()> {
+    args.common.init()?;
+    args.common.check_stdout_free(&args.output)?;
+    let format = output_format(&args.output, None, FileFormat::Ply)?;
+    if matches!(format, FileFormat::Ply | FileFormat::Glb) {
+        crate::cli::check_binary_stdout(&args.output)?;
+    }
+    if let Some(f) = args.min_component_area {
+        if !(0.0..=1.0).contains(&f) {
+            anyhow::bail!("--min-component-area must be a fraction in [0, 1] (got {f})");
+        }
+    }
+    let steps = CleanSteps {
+        merge: !args.no_merge,
+        degenerate: !args.no_degenerate,
+        duplicates: !args.no_duplicates,
+        nonmanifold: !args.no_nonmanifold,
+        unreferenced: !args.no_unreferenced,
+        components: ComponentFilter {
+            keep_largest: args.keep_largest,
+            min_faces: args.min_component_faces,
+            min_area_fraction: args.min_component_area,
+        },
+    };
+    let mut mesh = load_mesh(&args.input)?;
+    let r = clean_mesh(&mut mesh, &steps);
+    crate::io::write_output(&args.output, |w| write_mesh_as(w, &mesh, format))?;
+    args.common.say(format!(
+        "clean: {} faces / {} vertices -> {} / {} (merged {}, degenerate {}, duplicate {}, non-manifold {}, unreferenced {}, components removed {} of {})",
+        r.faces_before,
+        r.vertices_before,
+        r.faces_after,
+        r.vertices_after,
+        r.merged_vertices,
+        r.degenerate_faces,
+        r.duplicate_faces,
+        r.nonmanifold_faces,
+        r.unreferenced_vertices,
+        r.removed_components,
+        r.components
+    ));
+    args.common.emit_json(&json!({
+        "input": shown(&args.input, false),
+        "output": shown(&args.output, true),
+        "report": r,
+    }))?;
+    Ok(())
+}
