@@ -89,7 +89,7 @@ pub struct PoissonArgs {
     #[arg(long, default_value_t = 4.0)]
     pub bg_factor: f64,
     /// Foreground box in absolute coordinates (replaces the camera cube).
-    #[arg(long, value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ")]
+    #[arg(long, value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ", allow_hyphen_values = true)]
     pub bbox: Option<String>,
     /// Reconstruct the foreground only (needs --split-by-cameras or --bbox).
     #[arg(long)]
@@ -246,7 +246,7 @@ pub fn run_pipeline(cloud: PointCloud, opt: &PipelineOptions) -> crate::Result<P
             outliers_removed = finite.len() - keep.len();
             pc = subset(&pc, &keep);
         }
-        if pc.len() < 4 {
+        if pc.len() < 4 && opt.split.is_some() {
             skipped.push((name, pc.len()));
             continue;
         }
