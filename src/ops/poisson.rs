@@ -60,6 +60,10 @@ pub struct PoissonArgs {
     /// Place iso-vertices by linear instead of quadratic interpolation.
     #[arg(long)]
     pub linear_fit: bool,
+    /// Extract on the uniform grid of the finest depth instead of the adaptive
+    /// octree (PoissonRecon's way): finer triangles where the solve is coarse.
+    #[arg(long)]
+    pub uniform_extraction: bool,
     /// Finest cell width in world units (sets the depth; overrides --depth).
     #[arg(long, value_name = "W")]
     pub width: Option<f64>,
@@ -89,7 +93,11 @@ pub struct PoissonArgs {
     #[arg(long, default_value_t = 4.0)]
     pub bg_factor: f64,
     /// Foreground box in absolute coordinates (replaces the camera cube).
-    #[arg(long, value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ",
+        allow_hyphen_values = true
+    )]
     pub bbox: Option<String>,
     /// Reconstruct the foreground only (needs --split-by-cameras or --bbox).
     #[arg(long)]
@@ -379,6 +387,7 @@ pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
             iters: args.iters,
             linear_fit: args.linear_fit,
             width: args.width,
+            uniform_extraction: args.uniform_extraction,
         },
         flip_normals: args.flip_normals,
         outliers: outlier_k.map(|k| (k, outlier_std)),

@@ -256,7 +256,7 @@ fn tri_area(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]) -> f64 {
 
 /// Minimum-area triangulation of a polygon (indices into `pos`), keeping
 /// its orientation.
-fn triangulate(poly: &[u32], pos: &[[f64; 3]], out: &mut Vec<[u32; 3]>) {
+pub(crate) fn triangulate(poly: &[u32], pos: &[[f64; 3]], out: &mut Vec<[u32; 3]>) {
     let n = poly.len();
     if n == 3 {
         out.push([poly[0], poly[1], poly[2]]);
@@ -404,7 +404,7 @@ fn process_block(levels: &[Level], b: [i32; 3], prm: &ExtractParams) -> BlockOut
 }
 
 /// Position of the iso-crossing on an edge as a fraction in [0, 1].
-fn edge_root(va: f32, vb: f32, da: f32, db: f32, iso: f32, linear: bool) -> f64 {
+pub(crate) fn edge_root(va: f32, vb: f32, da: f32, db: f32, iso: f32, linear: bool) -> f64 {
     let (va, vb, iso) = (va as f64, vb as f64, iso as f64);
     let lin = ((iso - va) / (vb - va)).clamp(0.0, 1.0);
     if linear {

@@ -19,6 +19,7 @@ pub mod bspline;
 pub mod density;
 pub mod extract;
 pub mod grid;
+pub mod octree_extract;
 pub mod samples;
 pub mod system;
 #[cfg(test)]
@@ -52,6 +53,9 @@ pub struct PoissonParams {
     pub linear_fit: bool,
     /// Finest cell width in world units; sets the depth to ⌈log2(side/width)⌉.
     pub width: Option<f64>,
+    /// Extract on the uniform grid of the finest depth instead of the
+    /// adaptive octree (more, smaller triangles where the solve is coarse).
+    pub uniform_extraction: bool,
 }
 
 impl Default for PoissonParams {
@@ -65,6 +69,7 @@ impl Default for PoissonParams {
             iters: 8,
             linear_fit: false,
             width: None,
+            uniform_extraction: false,
         }
     }
 }
@@ -250,19 +255,23 @@ pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOut
         })
         .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
     let iso = if den > 0.0 { num / den } else { 0.5 };
-    let iso_mesh = extract::extract(
-        &levels,
-        &samples.pos,
-        &extract::ExtractParams {
-            iso,
-            linear: prm.linear_fit,
-        },
-    );
-    let support: Vec<u8> = iso_mesh
-        .vertices
-        .par_iter()
-        .map(|u| system::support_level(&levels, *u) as u8)
-        .collect();
+    let xp = extract::ExtractParams {
+        iso,
+        linear: prm.linear_fit,
+    };
+    let (iso_mesh, support) = if prm.uniform_extraction {
+        let m = extract::extract(&levels, &samples.pos, &xp);
+        let s: Vec<u8> = m
+            .vertices
+            .par_iter()
+            .map(|u| system::support_level(&levels, *u) as u8)
+            .collect();
+        (m, s)
+    } else {
+        let m = octree_extract::extract_octree(&levels, &samples.pos, &xp);
+        let s = vec![depth as u8; m.vertices.len()];
+        (m, s)
+    };
     drop(levels);
     lap("extract", &mut secs);
 
@@ -274,18 +283,20 @@ pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOut
             [w[0] as f32, w[1] as f32, w[2] as f32]
         })
         .collect();
-    let normals: Vec<[f32; 3]> = iso_mesh
-        .gradients
-        .par_iter()
-        .map(|g| {
-            let l = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-            if l > 0.0 {
-                [-g[0] / l, -g[1] / l, -g[2] / l]
-            } else {
-                [0.0; 3]
-            }
-        })
-        .collect();
+    let normals: Option<Vec<[f32; 3]>> = (!iso_mesh.gradients.is_empty()).then(|| {
+        iso_mesh
+            .gradients
+            .par_iter()
+            .map(|g| {
+                let l = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                if l > 0.0 {
+                    [-g[0] / l, -g[1] / l, -g[2] / l]
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect()
+    });
     let dens: Vec<f32> = iso_mesh
         .vertices
         .par_iter()
@@ -296,7 +307,10 @@ pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOut
         .as_ref()
         .map(|c| vertex_colors(&samples.pos, c, &iso_mesh.vertices));
     let mut mesh = Mesh::new(vertices, iso_mesh.triangles);
-    mesh.normals = Some(normals);
+    mesh.normals = Some(match normals {
+        Some(n) => n,
+        None => crate::geom::clean::vertex_normals(&mesh),
+    });
     mesh.vertex_colors = colors;
     mesh.vertex_scalars.push(("density".to_string(), dens));
     lap("attributes", &mut secs);

@@ -68,6 +68,11 @@ pub struct Level {
     pub active: Vec<Mask>,
     /// χ_{≤ℓ} at valid nodes (NaN elsewhere).
     pub y: Vec<f32>,
+    /// Cells whose corners are solved at this level (`C_ℓ`); empty for the
+    /// complete levels up to `full_depth`, where every cell is.
+    pub cells: BitGrid,
+    /// True for the complete levels.
+    pub complete: bool,
     b: Vec<f32>,
     screen: Vec<Vec<ScreenCell>>,
 }
@@ -241,13 +246,19 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
                 valid: masks(&valid),
                 active: masks(&active),
                 y: vec![f32::NAN; nb * BRICK_LEN],
+                cells: BitGrid::new(),
+                complete: lv <= full,
                 b: vec![0.0; nb * BRICK_LEN],
                 screen: vec![Vec::new(); nb],
                 bricks,
             }
         })
         .collect();
-    drop(cells);
+    for (lev, c) in levels.iter_mut().zip(cells) {
+        if !lev.complete {
+            lev.cells = c;
+        }
+    }
 
     levels.par_iter_mut().for_each(|lev| {
         add_screening(lev, samples, d, p.point_weight * mean_area);

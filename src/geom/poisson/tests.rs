@@ -377,3 +377,23 @@ fn degenerate_inputs_are_clear_errors() {
     let out = reconstruct(&pc, &params(5)).unwrap();
     assert_eq!(out.stats.dropped_points, 2);
 }
+
+/// The uniform finest-depth extraction (`--uniform-extraction`) meets the
+/// same bounds as the octree extraction on the sphere, and has at least as
+/// many vertices (it never uses coarser cells).
+#[test]
+fn uniform_extraction_matches_octree_extraction() {
+    let shape = Shape::Sphere { r: 1.0 };
+    let pc = shape.sample(30_000, 0.0, 11);
+    let mut prm = params(6);
+    let oct = reconstruct(&pc, &prm).unwrap();
+    prm.uniform_extraction = true;
+    let uni = reconstruct(&pc, &prm).unwrap();
+    for out in [&oct, &uni] {
+        let (mean, max) = distances_in_cells(out, &shape);
+        let (wt, or, comps) = topology(&out.mesh);
+        assert!(wt && or && comps == 1);
+        assert!(mean <= 0.05 && max <= 0.25, "mean {mean} max {max}");
+    }
+    assert!(uni.mesh.vertices.len() >= oct.mesh.vertices.len());
+}
