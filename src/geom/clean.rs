@@ -226,9 +226,9 @@ pub fn face_components(mesh: &Mesh) -> Vec<u32> {
     let mut label = vec![u32::MAX; nf];
     let mut next = 0;
     let mut root_label: FxHashMap<u32, u32> = FxHashMap::default();
-    for i in 0..nf {
+    for (i, l) in label.iter_mut().enumerate() {
         let r = find(&mut parent, i as u32);
-        label[i] = *root_label.entry(r).or_insert_with(|| {
+        *l = *root_label.entry(r).or_insert_with(|| {
             next += 1;
             next - 1
         });

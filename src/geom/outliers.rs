@@ -34,7 +34,7 @@ pub fn statistical_outliers(
             threshold: f64::INFINITY,
         });
     }
-    if !(std_ratio >= 0.0) {
+    if std_ratio.is_nan() || std_ratio < 0.0 {
         return Err(Error::invalid(format!(
             "outlier std ratio must be ≥ 0 (got {std_ratio})"
         )));

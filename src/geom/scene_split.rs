@@ -92,7 +92,7 @@ impl SceneSplit {
             .map(|p| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt())
             .fold(0.0, f64::max);
         let r = fg_factor * rmax;
-        if !(r > 0.0) {
+        if r.is_nan() || r <= 0.0 {
             return Err(Error::invalid(
                 "all cameras share one centre: the foreground cube would be empty",
             ));
@@ -137,7 +137,7 @@ pub fn auto_depth(points: &[[f64; 3]]) -> Result<u32> {
         }
     }
     let bbox = 1.1 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-    if !(bbox > 0.0) {
+    if bbox.is_nan() || bbox <= 0.0 {
         return Err(Error::invalid("--auto-depth: all points coincide"));
     }
     let tree = kiddo::ImmutableKdTree::<f64, 3>::new_from_slice(points)
@@ -157,10 +157,10 @@ pub fn auto_depth(points: &[[f64; 3]]) -> Result<u32> {
         .collect();
     d2.sort_unstable_by(f64::total_cmp);
     let q = crate::geom::trim::quantile(&d2.iter().map(|&x| x as f32).collect::<Vec<_>>(), 0.1);
-    if !(q > 0.0) {
+    if q.is_nan() || q <= 0.0 {
         return Ok(10);
     }
-    Ok(((-(100.0 * q).log2()).floor().min(10.0)).max(2.0) as u32)
+    Ok((-(100.0 * q).log2()).floor().clamp(2.0, 10.0) as u32)
 }
 
 #[cfg(test)]

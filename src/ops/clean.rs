@@ -142,10 +142,10 @@ pub fn run(args: CleanArgs) -> anyhow::Result<()> {
     if matches!(format, FileFormat::Ply | FileFormat::Glb) {
         crate::cli::check_binary_stdout(&args.output)?;
     }
-    if let Some(f) = args.min_component_area {
-        if !(0.0..=1.0).contains(&f) {
-            anyhow::bail!("--min-component-area must be a fraction in [0, 1] (got {f})");
-        }
+    if let Some(f) = args.min_component_area
+        && !(0.0..=1.0).contains(&f)
+    {
+        anyhow::bail!("--min-component-area must be a fraction in [0, 1] (got {f})");
     }
     let steps = CleanSteps {
         merge: !args.no_merge,

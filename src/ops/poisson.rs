@@ -200,11 +200,11 @@ fn concat(a: &mut Mesh, b: Mesh) {
 /// Runs the pipeline on a point cloud.
 pub fn run_pipeline(cloud: PointCloud, opt: &PipelineOptions) -> crate::Result<PipelineOutput> {
     let mut cloud = cloud;
-    if opt.flip_normals {
-        if let Some(n) = &mut cloud.normals {
-            for v in n.iter_mut() {
-                *v = [-v[0], -v[1], -v[2]];
-            }
+    if opt.flip_normals
+        && let Some(n) = &mut cloud.normals
+    {
+        for v in n.iter_mut() {
+            *v = [-v[0], -v[1], -v[2]];
         }
     }
     // Parts as index lists.

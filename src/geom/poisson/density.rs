@@ -101,8 +101,8 @@ impl DensityField {
                     while i < n && samples.keys[i] >> shift == key {
                         let wi = samples.weight[i];
                         w += wi;
-                        for a in 0..3 {
-                            c[a] += wi * samples.pos[i][a];
+                        for (ca, pa) in c.iter_mut().zip(samples.pos[i]) {
+                            *ca += wi * pa;
                         }
                         i += 1;
                     }

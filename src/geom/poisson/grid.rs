@@ -150,8 +150,8 @@ impl BitGrid {
     pub fn union_with(&mut self, o: &BitGrid) {
         for (k, (b, m)) in &o.map {
             let e = self.map.entry(*k).or_insert((*b, [0; 8]));
-            for z in 0..8 {
-                e.1[z] |= m[z];
+            for (dst, src) in e.1.iter_mut().zip(m) {
+                *dst |= src;
             }
         }
     }
@@ -161,8 +161,8 @@ impl BitGrid {
             return;
         }
         let e = map.entry(brick_key(b)).or_insert((b, [0; 8]));
-        for z in 0..8 {
-            e.1[z] |= m[z];
+        for (dst, src) in e.1.iter_mut().zip(m) {
+            *dst |= src;
         }
     }
 
@@ -240,10 +240,10 @@ impl BitGrid {
             if (0..3).all(|a| b[a] * BS >= lo[a] && b[a] * BS + BS - 1 <= hi[a]) {
                 return true;
             }
-            for z in 0..8 {
+            for (z, word) in m.iter_mut().enumerate() {
                 let gz = b[2] * BS + z as i32;
                 if gz < lo[2] || gz > hi[2] {
-                    m[z] = 0;
+                    *word = 0;
                     continue;
                 }
                 let mut keep = 0u64;
@@ -259,7 +259,7 @@ impl BitGrid {
                         }
                     }
                 }
-                m[z] &= keep;
+                *word &= keep;
             }
             m.iter().any(|&w| w != 0)
         });

@@ -170,13 +170,17 @@ pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOut
     let normals = cloud.normals.as_ref().ok_or_else(|| {
         Error::invalid("the points have no normals (nx, ny, nz): Poisson needs oriented points")
     })?;
-    if !(prm.scale > 1.0) || !prm.scale.is_finite() {
+    if prm.scale.is_nan() || prm.scale <= 1.0 || !prm.scale.is_finite() {
         return Err(Error::invalid(format!(
             "scale must be > 1 (got {})",
             prm.scale
         )));
     }
-    if !(prm.samples_per_node > 0.0) || !(prm.point_weight >= 0.0) {
+    if prm.samples_per_node.is_nan()
+        || prm.samples_per_node <= 0.0
+        || prm.point_weight.is_nan()
+        || prm.point_weight < 0.0
+    {
         return Err(Error::invalid(
             "samples-per-node must be > 0 and point-weight ≥ 0",
         ));

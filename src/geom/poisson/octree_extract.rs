@@ -204,9 +204,12 @@ impl Tree<'_> {
     }
 }
 
+/// A crossing: the key of its segment (end-node keys) and its position.
+type Crossing = ((u64, u64), [f64; 3]);
+
 struct LeafOut {
-    /// Loops as crossing keys with positions (finest-grid units).
-    loops: Vec<Vec<((u64, u64), [f64; 3])>>,
+    /// Loops of crossings (positions in finest-grid units).
+    loops: Vec<Vec<Crossing>>,
     /// Leaves across every crossing segment.
     next: Vec<(u32, [i32; 3])>,
 }

@@ -88,7 +88,7 @@ pub fn normalization(points: &[[f64; 3]], scale: f64) -> Option<Normalization> {
         }
     }
     let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-    if points.is_empty() || !(extent > 0.0) {
+    if points.is_empty() || extent.is_nan() || extent <= 0.0 {
         return None;
     }
     Some(Normalization {

@@ -413,8 +413,8 @@ fn add_screening(lev: &mut Level, samples: &Samples, d: u32, alpha_area: f64) {
         while i < n && samples.keys[i] >> shift == key {
             let wi = samples.weight[i];
             w += wi;
-            for a in 0..3 {
-                c[a] += wi * samples.pos[i][a];
+            for (ca, pa) in c.iter_mut().zip(samples.pos[i]) {
+                *ca += wi * pa;
             }
             i += 1;
         }
@@ -656,7 +656,7 @@ fn prolong_solution(prev: &Level, lev: &mut Level) {
                             continue;
                         }
                         let taps = |n: usize| -> [(usize, f32); 2] {
-                            if n % 2 == 0 {
+                            if n.is_multiple_of(2) {
                                 [(n / 2, 1.0), (n / 2, 0.0)]
                             } else {
                                 [(n / 2, 0.5), (n / 2 + 1, 0.5)]
