@@ -17,7 +17,9 @@ use serde_json::json;
 
 use crate::cli::{Common, shown};
 use crate::geom::outliers::statistical_outliers;
-use crate::geom::poisson::{PoissonOutput, PoissonParams, PoissonStats, reconstruct};
+use crate::geom::poisson::{
+    PoissonOutput, PoissonParams, PoissonStats, STAGES, reconstruct_with_progress,
+};
 use crate::geom::scene_split::{Aabb, Part, SceneSplit, auto_depth};
 use crate::geom::trim::{trim_quantile_weighted, trim_threshold};
 use crate::io::detect::{FileFormat, PlyKind};
@@ -199,6 +201,16 @@ fn concat(a: &mut Mesh, b: Mesh) {
 
 /// Runs the pipeline on a point cloud.
 pub fn run_pipeline(cloud: PointCloud, opt: &PipelineOptions) -> crate::Result<PipelineOutput> {
+    run_pipeline_with_progress(cloud, opt, &|_, _| {})
+}
+
+/// [`run_pipeline`], calling `on_stage(part, stage)` after each stage of
+/// each part's reconstruction.
+pub fn run_pipeline_with_progress(
+    cloud: PointCloud,
+    opt: &PipelineOptions,
+    on_stage: &dyn Fn(&str, &str),
+) -> crate::Result<PipelineOutput> {
     let mut cloud = cloud;
     if opt.flip_normals
         && let Some(n) = &mut cloud.normals
@@ -273,7 +285,8 @@ pub fn run_pipeline(cloud: PointCloud, opt: &PipelineOptions) -> crate::Result<P
             mesh: mut m,
             stats,
             support_depth,
-        } = reconstruct(&pc, &params).map_err(|e| crate::Error::invalid(format!("{name}: {e}")))?;
+        } = reconstruct_with_progress(&pc, &params, &|stage| on_stage(&name, stage))
+            .map_err(|e| crate::Error::invalid(format!("{name}: {e}")))?;
         let mut trimmed = 0;
         let mut threshold = None;
         if let Some(q) = opt.trim_quantile {
@@ -398,8 +411,20 @@ pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
         trim_threshold: args.trim,
     };
     let cloud = load_points(&args.input)?;
-    let out = run_pipeline(cloud, &opt)
-        .with_context(|| format!("reconstructing {}", shown(&args.input, false)))?;
+    let parts = if opt.split.is_some() && !opt.foreground_only {
+        2
+    } else {
+        1
+    };
+    let pb = args
+        .common
+        .progress((parts * STAGES.len()) as u64, "poisson");
+    let out = run_pipeline_with_progress(cloud, &opt, &|part, stage| {
+        pb.set_message(format!("{part}: {stage}"));
+        pb.inc(1);
+    })
+    .with_context(|| format!("reconstructing {}", shown(&args.input, false)))?;
+    pb.finish_and_clear();
     crate::io::write_output(&args.output, |w| {
         crate::io::ply::mesh::write_mesh(w, &out.mesh, Format::BinaryLittleEndian)
     })?;

@@ -161,10 +161,24 @@ fn check_spread(p: &[[f64; 3]]) -> Result<()> {
 /// or non-finite normal are dropped and counted. Fewer than four usable
 /// points, or points that are all identical or collinear, are an error.
 pub fn reconstruct(cloud: &PointCloud, prm: &PoissonParams) -> Result<PoissonOutput> {
+    reconstruct_with_progress(cloud, prm, &|_| {})
+}
+
+/// The five stages [`reconstruct_with_progress`] reports, in order.
+pub const STAGES: [&str; 5] = ["merge", "density", "solve", "extract", "attributes"];
+
+/// [`reconstruct`], calling `on_stage` with the name of each of [`STAGES`]
+/// as it finishes (for progress bars).
+pub fn reconstruct_with_progress(
+    cloud: &PointCloud,
+    prm: &PoissonParams,
+    on_stage: &dyn Fn(&str),
+) -> Result<PoissonOutput> {
     let mut secs = Vec::new();
     let mut clock = Instant::now();
     let mut lap = |name: &str, secs: &mut Vec<(String, f64)>| {
         secs.push((name.to_string(), clock.elapsed().as_secs_f64()));
+        on_stage(name);
         clock = Instant::now();
     };
     let normals = cloud.normals.as_ref().ok_or_else(|| {
