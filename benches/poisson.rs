@@ -98,13 +98,8 @@ fn options(depth: u32, trim: Option<f64>) -> PipelineOptions {
             depth,
             ..Default::default()
         },
-        flip_normals: false,
-        outliers: None,
-        split: None,
-        foreground_only: false,
-        auto_depth: false,
         trim_quantile: trim,
-        trim_threshold: None,
+        ..Default::default()
     }
 }
 

@@ -4,8 +4,9 @@
 
 use assert_cmd::Command;
 use glam::{DMat3, DVec3};
+use splatkit::geom::clean::signed_volume;
 use splatkit::io::ply::{Format, mesh::parse_mesh, points::write_points};
-use splatkit::model::{Camera, Mesh, PointCloud};
+use splatkit::model::{Camera, PointCloud};
 
 fn bin(name: &str) -> Command {
     Command::cargo_bin(name).expect("binary built")
@@ -33,18 +34,6 @@ fn ply(pc: &PointCloud) -> Vec<u8> {
     let mut b = Vec::new();
     write_points(&mut b, pc, Format::BinaryLittleEndian).unwrap();
     b
-}
-
-fn signed_volume(m: &Mesh) -> f64 {
-    m.faces
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(|i| m.vertices[i as usize].map(|x| x as f64));
-            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                / 6.0
-        })
-        .sum()
 }
 
 #[test]

@@ -97,16 +97,45 @@ pub fn merge_duplicate_vertices(mesh: &mut Mesh) -> usize {
     remove_unreferenced_vertices(mesh)
 }
 
-fn area2(m: &Mesh, f: &[u32; 3]) -> f64 {
-    let [a, b, c] = f.map(|i| m.vertices[i as usize].map(|x| x as f64));
+/// (b − a) × (c − a): twice the triangle's area times its unit normal
+/// (counter-clockwise winding).
+pub fn triangle_cross(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
     let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let x = [
+    [
         u[1] * v[2] - u[2] * v[1],
         u[2] * v[0] - u[0] * v[2],
         u[0] * v[1] - u[1] * v[0],
-    ];
-    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+    ]
+}
+
+/// The corners of face `f` in f64.
+pub fn face_corners(m: &Mesh, f: &[u32; 3]) -> [[f64; 3]; 3] {
+    f.map(|i| m.vertices[i as usize].map(|x| x as f64))
+}
+
+/// Area of face `f`.
+pub fn face_area(m: &Mesh, f: &[u32; 3]) -> f64 {
+    let [a, b, c] = face_corners(m, f);
+    let x = triangle_cross(a, b, c);
+    0.5 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+}
+
+/// Signed enclosed volume (positive for a closed mesh whose faces wind
+/// counter-clockwise seen from outside).
+pub fn signed_volume(m: &Mesh) -> f64 {
+    m.faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = face_corners(m, f);
+            let x = triangle_cross([0.0; 3], b, c);
+            (a[0] * x[0] + a[1] * x[1] + a[2] * x[2]) / 6.0
+        })
+        .sum()
+}
+
+fn area2(m: &Mesh, f: &[u32; 3]) -> f64 {
+    2.0 * face_area(m, f)
 }
 
 /// Removes faces with a repeated vertex index (Open3D
@@ -288,14 +317,8 @@ pub fn filter_components(mesh: &mut Mesh, flt: &ComponentFilter) -> (usize, usiz
 pub fn vertex_normals(mesh: &Mesh) -> Vec<[f32; 3]> {
     let mut acc = vec![[0.0f64; 3]; mesh.vertices.len()];
     for f in &mesh.faces {
-        let [a, b, c] = f.map(|i| mesh.vertices[i as usize].map(|x| x as f64));
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let x = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
+        let [a, b, c] = face_corners(mesh, f);
+        let x = triangle_cross(a, b, c);
         for &i in f {
             for k in 0..3 {
                 acc[i as usize][k] += x[k];

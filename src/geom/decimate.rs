@@ -159,16 +159,12 @@ mod tests {
 
     fn closed_and_outward(m: &Mesh) -> (bool, f64) {
         let mut e: rustc_hash::FxHashMap<(u32, u32), usize> = Default::default();
-        let mut vol = 0.0;
         for f in &m.faces {
             for k in 0..3 {
                 *e.entry((f[k], f[(k + 1) % 3])).or_default() += 1;
             }
-            let [a, b, c] = f.map(|i| m.vertices[i as usize].map(|x| x as f64));
-            vol += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                / 6.0;
         }
+        let vol = crate::geom::clean::signed_volume(m);
         let closed = e
             .iter()
             .all(|(&(a, b), &c)| c == 1 && e.get(&(b, a)) == Some(&1));

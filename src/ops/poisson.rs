@@ -133,6 +133,22 @@ pub struct PipelineOptions {
     pub trim_threshold: Option<f64>,
 }
 
+impl Default for PipelineOptions {
+    /// PoissonRecon / Open3D defaults, nothing else.
+    fn default() -> Self {
+        PipelineOptions {
+            params: PoissonParams::default(),
+            flip_normals: false,
+            outliers: None,
+            split: None,
+            foreground_only: false,
+            auto_depth: false,
+            trim_quantile: None,
+            trim_threshold: None,
+        }
+    }
+}
+
 /// What happened to one part.
 #[derive(Clone, Debug, Serialize)]
 pub struct PartReport {
@@ -483,15 +499,8 @@ mod tests {
     fn far_area(m: &Mesh, dist: impl Fn([f64; 3]) -> f64, tol: f64) -> (f64, f64) {
         let (mut far, mut total) = (0.0, 0.0);
         for f in &m.faces {
-            let [a, b, c] = f.map(|i| m.vertices[i as usize].map(|x| x as f64));
-            let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-            let x = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
-            let area = 0.5 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+            let [a, b, c] = crate::geom::clean::face_corners(m, f);
+            let area = crate::geom::clean::face_area(m, f);
             let g = [
                 (a[0] + b[0] + c[0]) / 3.0,
                 (a[1] + b[1] + c[1]) / 3.0,
@@ -511,13 +520,8 @@ mod tests {
                 depth,
                 ..Default::default()
             },
-            flip_normals: false,
-            outliers: None,
-            split: None,
-            foreground_only: false,
-            auto_depth: false,
             trim_quantile: trim,
-            trim_threshold: None,
+            ..Default::default()
         }
     }
 

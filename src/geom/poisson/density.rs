@@ -92,21 +92,7 @@ impl DensityField {
                     bricks: FxHashMap::default(),
                 };
                 let shift = 3 * (samples.depth.saturating_sub(k));
-                let mut i = 0;
-                let n = samples.len();
-                while i < n {
-                    let key = samples.keys[i] >> shift;
-                    let mut w = 0.0;
-                    let mut c = [0.0; 3];
-                    while i < n && samples.keys[i] >> shift == key {
-                        let wi = samples.weight[i];
-                        w += wi;
-                        for (ca, pa) in c.iter_mut().zip(samples.pos[i]) {
-                            *ca += wi * pa;
-                        }
-                        i += 1;
-                    }
-                    let p = [c[0] / w, c[1] / w, c[2] / w];
+                samples.for_each_cell(shift, |w, p| {
                     let r = lv.res as f64;
                     let (ix, wx) = b2_weights(p[0] * r);
                     let (iy, wy) = b2_weights(p[1] * r);
@@ -120,7 +106,7 @@ impl DensityField {
                             }
                         }
                     }
-                }
+                });
                 lv
             })
             .collect();

@@ -244,13 +244,7 @@ fn edge_key(p: [i32; 3], axis: usize) -> u64 {
 }
 
 fn tri_area(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]) -> f64 {
-    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let x = [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ];
+    let x = crate::geom::clean::triangle_cross(*a, *b, *c);
     (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
 }
 

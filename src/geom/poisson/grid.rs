@@ -268,21 +268,7 @@ impl BitGrid {
     /// The set of parents (coordinates halved, rounding down) one level up.
     pub fn parents(&self) -> BitGrid {
         let mut g = BitGrid::new();
-        for (b, m) in self.map.values() {
-            for (z, &w) in m.iter().enumerate() {
-                let mut w = w;
-                while w != 0 {
-                    let bit = w.trailing_zeros() as i32;
-                    w &= w - 1;
-                    let p = [
-                        b[0] * BS + (bit & 7),
-                        b[1] * BS + (bit >> 3),
-                        b[2] * BS + z as i32,
-                    ];
-                    g.insert([p[0] >> 1, p[1] >> 1, p[2] >> 1]);
-                }
-            }
-        }
+        self.for_each(|p| g.insert([p[0] >> 1, p[1] >> 1, p[2] >> 1]));
         g
     }
 }

@@ -221,6 +221,7 @@ fn process_leaf(t: &Tree, l: u32, c: [i32; 3]) -> LeafOut {
     let mut subs = Vec::new();
     let mut ring: Vec<Node> = Vec::new();
     let mut seg: Vec<Node> = Vec::new();
+    let mut memo: Vec<(Node, f32)> = Vec::with_capacity(16);
     for f in 0..6 {
         subs.clear();
         t.subfaces(l, c, f, &mut subs);
@@ -248,7 +249,18 @@ fn process_leaf(t: &Tree, l: u32, c: [i32; 3]) -> LeafOut {
                 }
                 ring.extend_from_slice(&seg[..seg.len() - 1]);
             }
-            let vals: Vec<f32> = ring.iter().map(|&p| t.value(p)).collect();
+            // Each node is on up to three faces of the leaf: look it up once.
+            let vals: Vec<f32> = ring
+                .iter()
+                .map(|&p| match memo.iter().find(|(q, _)| *q == p) {
+                    Some(&(_, v)) => v,
+                    None => {
+                        let v = t.value(p);
+                        memo.push((p, v));
+                        v
+                    }
+                })
+                .collect();
             let inside: Vec<bool> = vals.iter().map(|&x| x > t.iso).collect();
             let n = ring.len();
             let mut crossings: Vec<(usize, bool)> = Vec::new();

@@ -70,6 +70,28 @@ impl Samples {
         self.keys.is_empty()
     }
 
+    /// Aggregates the samples per cell of a coarser depth (`shift` = 3 × the
+    /// depth difference, on the Morton keys), calling `f(total weight,
+    /// weighted centroid)` once per occupied cell, in key order.
+    pub fn for_each_cell(&self, shift: u32, mut f: impl FnMut(f64, [f64; 3])) {
+        let n = self.len();
+        let mut i = 0;
+        while i < n {
+            let key = self.keys[i] >> shift;
+            let mut w = 0.0;
+            let mut c = [0.0; 3];
+            while i < n && self.keys[i] >> shift == key {
+                let wi = self.weight[i];
+                w += wi;
+                for (ca, pa) in c.iter_mut().zip(self.pos[i]) {
+                    *ca += wi * pa;
+                }
+                i += 1;
+            }
+            f(w, [c[0] / w, c[1] / w, c[2] / w]);
+        }
+    }
+
     /// Total weight (number of merged points).
     pub fn total_weight(&self) -> f64 {
         self.weight.iter().sum()

@@ -404,25 +404,8 @@ fn add_screening(lev: &mut Level, samples: &Samples, d: u32, alpha_area: f64) {
     // hallucinated sheets 0.60 cells (symmetric mean) from Open3D's, 2^(ℓ+1)
     // 0.19 cells, with the near-surface error matching (0.00038 vs 0.00033).
     let scale = alpha_area * 2.0 * res as f64;
-    let n = samples.len();
-    let mut i = 0;
-    while i < n {
-        let key = samples.keys[i] >> shift;
-        let mut w = 0.0;
-        let mut c = [0.0; 3];
-        while i < n && samples.keys[i] >> shift == key {
-            let wi = samples.weight[i];
-            w += wi;
-            for (ca, pa) in c.iter_mut().zip(samples.pos[i]) {
-                *ca += wi * pa;
-            }
-            i += 1;
-        }
-        let t = [
-            c[0] / w * res as f64,
-            c[1] / w * res as f64,
-            c[2] / w * res as f64,
-        ];
+    samples.for_each_cell(shift, |w, c| {
+        let t = [c[0] * res as f64, c[1] * res as f64, c[2] * res as f64];
         let cell = [
             (t[0].floor() as i32).clamp(0, res - 1),
             (t[1].floor() as i32).clamp(0, res - 1),
@@ -436,7 +419,7 @@ fn add_screening(lev: &mut Level, samples: &Samples, d: u32, alpha_area: f64) {
             ])
         });
         if !corners_valid {
-            continue;
+            return;
         }
         let f = [
             (t[0] - cell[0] as f64).clamp(0.0, 1.0),
@@ -453,7 +436,7 @@ fn add_screening(lev: &mut Level, samples: &Samples, d: u32, alpha_area: f64) {
             w: omega as f32,
             f: [f[0] as f32, f[1] as f32, f[2] as f32],
         });
-    }
+    });
 }
 
 /// Adds the screening target (χ = ½ at every virtual sample) to the level's

@@ -155,17 +155,7 @@ pub(crate) fn topology(m: &Mesh) -> (bool, bool, usize) {
 }
 
 /// Signed volume (positive for outward-oriented closed meshes).
-pub(crate) fn signed_volume(m: &Mesh) -> f64 {
-    m.faces
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(|i| m.vertices[i as usize].map(|x| x as f64));
-            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                / 6.0
-        })
-        .sum()
-}
+pub(crate) use crate::geom::clean::signed_volume;
 
 fn distances_in_cells(out: &PoissonOutput, shape: &Shape) -> (f64, f64) {
     let cell = out.stats.cell_size;
