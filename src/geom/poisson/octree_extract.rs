@@ -215,8 +215,11 @@ struct LeafOut {
 }
 
 fn process_leaf(t: &Tree, l: u32, c: [i32; 3]) -> LeafOut {
-    let mut next_of: FxHashMap<(u64, u64), (u64, u64)> = FxHashMap::default();
-    let mut pos: FxHashMap<(u64, u64), [f64; 3]> = FxHashMap::default();
+    // A leaf has a handful of crossings: small vectors beat hash maps.
+    let mut next_of: Vec<((u64, u64), (u64, u64))> = Vec::with_capacity(12);
+    let mut pos: Vec<Crossing> = Vec::with_capacity(12);
+    let mut vals: Vec<f32> = Vec::with_capacity(16);
+    let mut crossings: Vec<(usize, bool)> = Vec::with_capacity(8);
     let mut neighbours = Vec::new();
     let mut subs = Vec::new();
     let mut ring: Vec<Node> = Vec::new();
@@ -250,24 +253,25 @@ fn process_leaf(t: &Tree, l: u32, c: [i32; 3]) -> LeafOut {
                 ring.extend_from_slice(&seg[..seg.len() - 1]);
             }
             // Each node is on up to three faces of the leaf: look it up once.
-            let vals: Vec<f32> = ring
-                .iter()
-                .map(|&p| match memo.iter().find(|(q, _)| *q == p) {
-                    Some(&(_, v)) => v,
-                    None => {
-                        let v = t.value(p);
-                        memo.push((p, v));
-                        v
-                    }
-                })
-                .collect();
-            let inside: Vec<bool> = vals.iter().map(|&x| x > t.iso).collect();
+            vals.clear();
+            vals.extend(
+                ring.iter()
+                    .map(|&p| match memo.iter().find(|(q, _)| *q == p) {
+                        Some(&(_, v)) => v,
+                        None => {
+                            let v = t.value(p);
+                            memo.push((p, v));
+                            v
+                        }
+                    }),
+            );
+            let inside = |i: usize| vals[i] > t.iso;
             let n = ring.len();
-            let mut crossings: Vec<(usize, bool)> = Vec::new();
+            crossings.clear();
             for i in 0..n {
                 let j = (i + 1) % n;
-                if inside[i] != inside[j] {
-                    crossings.push((i, inside[j]));
+                if inside(i) != inside(j) {
+                    crossings.push((i, inside(j)));
                 }
             }
             if crossings.is_empty() {
@@ -284,19 +288,19 @@ fn process_leaf(t: &Tree, l: u32, c: [i32; 3]) -> LeafOut {
                     continue;
                 }
                 let (jl, _) = crossings[(ci + 1) % k];
-                next_of.insert(key(i), key(jl));
+                next_of.push((key(i), key(jl)));
             }
             for &(i, _) in &crossings {
                 let kk = key(i);
                 let j = (i + 1) % n;
-                pos.entry(kk).or_insert_with(|| {
+                if !pos.iter().any(|(k2, _)| *k2 == kk) {
                     let (a, b) = if node_key(ring[i]) < node_key(ring[j]) {
                         (i, j)
                     } else {
                         (j, i)
                     };
-                    t.crossing(ring[a], ring[b], vals[a], vals[b])
-                });
+                    pos.push((kk, t.crossing(ring[a], ring[b], vals[a], vals[b])));
+                }
                 // the leaves around this (minimal) segment
                 let (p, q2) = (ring[i], ring[j]);
                 let len = (q2[0] - p[0])
@@ -321,9 +325,10 @@ fn process_leaf(t: &Tree, l: u32, c: [i32; 3]) -> LeafOut {
         }
     }
     // chain the segments into loops (deterministic start order)
-    let mut starts: Vec<(u64, u64)> = next_of.keys().copied().collect();
-    starts.sort_unstable();
-    let mut seen: FxHashSet<(u64, u64)> = FxHashSet::default();
+    next_of.sort_unstable();
+    let starts: Vec<(u64, u64)> = next_of.iter().map(|e| e.0).collect();
+    let mut seen: Vec<(u64, u64)> = Vec::with_capacity(next_of.len());
+    let find_pos = |k: (u64, u64)| pos.iter().find(|(k2, _)| *k2 == k).map(|e| e.1);
     let mut loops = Vec::new();
     for s in starts {
         if seen.contains(&s) {
@@ -332,11 +337,13 @@ fn process_leaf(t: &Tree, l: u32, c: [i32; 3]) -> LeafOut {
         let mut lp = Vec::new();
         let mut k = s;
         let mut closed = false;
-        while seen.insert(k) {
-            lp.push((k, pos[&k]));
-            match next_of.get(&k) {
-                Some(&n) => k = n,
-                None => break,
+        while !seen.contains(&k) {
+            seen.push(k);
+            let Some(p) = find_pos(k) else { break };
+            lp.push((k, p));
+            match next_of.binary_search_by(|e| e.0.cmp(&k)) {
+                Ok(i) => k = next_of[i].1,
+                Err(_) => break,
             }
             if k == s {
                 closed = true;
