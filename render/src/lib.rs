@@ -2,9 +2,15 @@
 //!
 //! This crate depends on nothing in the main `splatkit` package. It holds the
 //! pinhole camera model (OpenCV axes) and real spherical-harmonics evaluation
-//! in the 3DGS convention; rasterisers arrive with the issues that need them.
+//! in the 3DGS convention, and the rasterisers: [`gaussian`] (3DGS semantics,
+//! forward).
 
 pub mod camera;
+pub mod dual;
+pub mod gaussian;
+pub mod gaussian_grad;
 pub mod sh;
+#[cfg(test)]
+mod testutil;
 
 pub use camera::{Camera, CameraModel};

@@ -1,0 +1,657 @@
+//! Forward Gaussian-splat rasteriser with the semantics of the 3DGS CUDA
+//! rasteriser, on the CPU.
+//!
+//! Per Gaussian (preprocess):
+//! - camera-space mean t = R·μ + T; culled when t.z ≤ `near` (3DGS: 0.2);
+//! - 3-D covariance Σ = R_q S Sᵀ R_qᵀ, S = diag(scales) (activated, world
+//!   units), R_q from the quaternion (w, x, y, z), normalised;
+//! - EWA projection: J = [[fx/z, 0, −fx·x/z²], [0, fy/z, −fy·y/z²]] with x/z and
+//!   y/z clamped to ±1.3·tan(fov/2) as 3DGS does, Σ' = J W Σ Wᵀ Jᵀ + 0.3·I
+//!   (the low-pass filter, pixels²);
+//! - screen radius = ⌈3·√λ_max(Σ')⌉; Gaussians whose box misses the image are
+//!   culled;
+//! - colour from SH (degree 0–3, 3DGS constants) in the direction from the
+//!   camera centre to the mean, + 0.5, clamped at 0.
+//!
+//! Per pixel (16×16 tiles, Gaussians sorted front to back by view depth per
+//! tile; pixel centres at integer + 0.5 in OpenCV pixel coordinates):
+//! α = min(0.99, opacity · exp(−½ dᵀ Σ'⁻¹ d)); contributions with α < 1/255
+//! or a positive exponent are skipped; a Gaussian whose contribution would
+//! take the transmittance T below 1e-4 is not blended and ends the pixel;
+//! C = Σ c_i α_i T_i + T·background.
+//!
+//! Outputs per pixel: RGB, alpha = 1 − T, expected depth Σ w z / Σ w
+//! (w = α T; 0 where nothing was blended), median depth (the view depth of the
+//! Gaussian at which T first falls to ≤ 0.5, as 2DGS defines it; 0 if never),
+//! a normal map (Σ w n / Σ w of each Gaussian's shortest axis turned to face
+//! the camera, camera axes) and the number of blended contributions.
+
+use rayon::prelude::*;
+
+use crate::Camera;
+use crate::dual::{Real, dot3, sh_basis};
+use crate::sh::coeff_count;
+
+/// Tile side in pixels.
+pub const TILE: usize = 16;
+
+/// Gaussians as the rasteriser wants them: activated values.
+#[derive(Clone, Debug, Default)]
+pub struct Gaussians3 {
+    /// Means, world units.
+    pub means: Vec<[f32; 3]>,
+    /// Standard deviations along the local axes (exp of the stored log scales).
+    pub scales: Vec<[f32; 3]>,
+    /// Rotations as quaternions (w, x, y, z), any length (normalised here).
+    pub rotations: Vec<[f32; 4]>,
+    /// Opacities in [0, 1] (sigmoid of the stored logits).
+    pub opacities: Vec<f32>,
+    /// SH coefficients per Gaussian, coefficient-major, `(degree+1)²` each.
+    pub sh: Vec<[f32; 3]>,
+    /// SH degree, 0–3.
+    pub sh_degree: usize,
+}
+
+impl Gaussians3 {
+    /// Number of Gaussians.
+    pub fn len(&self) -> usize {
+        self.means.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.means.is_empty()
+    }
+}
+
+/// Rasteriser settings.
+#[derive(Clone, Copy, Debug)]
+pub struct RasterSettings {
+    /// Background colour.
+    pub background: [f32; 3],
+    /// Near plane (camera z), Gaussians at or before it are culled.
+    pub near: f64,
+}
+
+impl Default for RasterSettings {
+    fn default() -> Self {
+        RasterSettings {
+            background: [0.0; 3],
+            near: 0.2,
+        }
+    }
+}
+
+/// The rendered buffers, row-major, `width × height`.
+#[derive(Clone, Debug, Default)]
+pub struct RenderOutput {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
+    pub alpha: Vec<f32>,
+    pub expected_depth: Vec<f32>,
+    pub median_depth: Vec<f32>,
+    /// Camera-space unit normals (zero where nothing was blended).
+    pub normal: Vec<[f32; 3]>,
+    pub count: Vec<u32>,
+}
+
+/// One projected Gaussian.
+#[derive(Clone, Copy, Debug)]
+pub struct Projected {
+    /// Index of the Gaussian.
+    pub id: u32,
+    /// Pixel-space mean (OpenCV pixel coordinates).
+    pub xy: [f32; 2],
+    /// Inverse 2-D covariance (a, b, c) of [[a, b], [b, c]].
+    pub conic: [f32; 3],
+    /// View depth.
+    pub depth: f32,
+    /// Screen radius in pixels.
+    pub radius: f32,
+    pub opacity: f32,
+    pub rgb: [f32; 3],
+    /// Camera-space normal facing the camera.
+    pub normal: [f32; 3],
+}
+
+/// The differentiable part of a Gaussian's projection, generic so that the
+/// backward pass gets its Jacobian from the same code (see [`crate::dual`]).
+pub(crate) struct ProjectedT<T> {
+    pub xy: [T; 2],
+    pub conic: [T; 3],
+    /// SH colour + 0.5, before the clamp at 0.
+    pub rgb: [T; 3],
+    pub depth: f64,
+    pub radius: f64,
+    /// Camera-space normal facing the camera.
+    pub normal: [f64; 3],
+}
+
+/// World-to-camera rotation as rows.
+pub(crate) fn rotation_rows(cam: &Camera) -> [[f64; 3]; 3] {
+    let r = cam.rotation;
+    std::array::from_fn(|i| [r.x_axis[i], r.y_axis[i], r.z_axis[i]])
+}
+
+/// Projects one Gaussian given its mean, scales and quaternion (w, x, y, z;
+/// normalised here) and its SH coefficients; `None` when culled.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn project_t<T: Real>(
+    mean: [T; 3],
+    scale: [T; 3],
+    quat: [T; 4],
+    sh: &[[f32; 3]],
+    sh_degree: usize,
+    cam: &Camera,
+    rows: &[[f64; 3]; 3],
+    s: &RasterSettings,
+) -> Option<ProjectedT<T>> {
+    let tr = cam.translation;
+    let t: [T; 3] = std::array::from_fn(|i| {
+        mean[0] * rows[i][0] + mean[1] * rows[i][1] + mean[2] * rows[i][2] + tr[i]
+    });
+    let z = t[2].val();
+    if z <= s.near || !z.is_finite() {
+        return None;
+    }
+    let qn = (quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] + quat[3] * quat[3]).sqrt();
+    let [w, x, y, zq] = if qn.val() > 0.0 {
+        quat.map(|v| v / qn)
+    } else {
+        [T::cst(1.0), T::cst(0.0), T::cst(0.0), T::cst(0.0)]
+    };
+    let one = T::cst(1.0);
+    // rotation matrix of the quaternion, rq[r][c]
+    let rq = [
+        [
+            one - (y * y + zq * zq) * 2.0,
+            (x * y - w * zq) * 2.0,
+            (x * zq + w * y) * 2.0,
+        ],
+        [
+            (x * y + w * zq) * 2.0,
+            one - (x * x + zq * zq) * 2.0,
+            (y * zq - w * x) * 2.0,
+        ],
+        [
+            (x * zq - w * y) * 2.0,
+            (y * zq + w * x) * 2.0,
+            one - (x * x + y * y) * 2.0,
+        ],
+    ];
+    let (wd, hd) = (cam.width as f64, cam.height as f64);
+    let lim_x = 1.3 * (wd / (2.0 * cam.fx));
+    let lim_y = 1.3 * (hd / (2.0 * cam.fy));
+    let inv_z = one / t[2];
+    let clamp = |v: T, lim: f64| {
+        let r = v * inv_z;
+        if r.val() > lim {
+            T::cst(lim)
+        } else if r.val() < -lim {
+            T::cst(-lim)
+        } else {
+            r
+        }
+    };
+    let (ux, uy) = (clamp(t[0], lim_x), clamp(t[1], lim_y));
+    // J·W (2×3): J = [[fx/z, 0, −fx·ux/z], [0, fy/z, −fy·uy/z]]
+    let j0 = [inv_z * cam.fx, T::cst(0.0), -(ux * inv_z) * cam.fx];
+    let j1 = [T::cst(0.0), inv_z * cam.fy, -(uy * inv_z) * cam.fy];
+    let jw0: [T; 3] =
+        std::array::from_fn(|c| j0[0] * rows[0][c] + j0[1] * rows[1][c] + j0[2] * rows[2][c]);
+    let jw1: [T; 3] =
+        std::array::from_fn(|c| j1[0] * rows[0][c] + j1[1] * rows[1][c] + j1[2] * rows[2][c]);
+    // A = J W R_q S (2×3); Σ' = A Aᵀ + 0.3 I
+    let a0: [T; 3] = std::array::from_fn(|c| {
+        (jw0[0] * rq[0][c] + jw0[1] * rq[1][c] + jw0[2] * rq[2][c]) * scale[c]
+    });
+    let a1: [T; 3] = std::array::from_fn(|c| {
+        (jw1[0] * rq[0][c] + jw1[1] * rq[1][c] + jw1[2] * rq[2][c]) * scale[c]
+    });
+    let ca = dot3(a0, a0) + 0.3;
+    let cb = dot3(a0, a1);
+    let cc = dot3(a1, a1) + 0.3;
+    let det = ca * cc - cb * cb;
+    if det.val().is_nan() || det.val() <= 0.0 {
+        return None;
+    }
+    let conic = [cc / det, -cb / det, ca / det];
+    let mid = 0.5 * (ca.val() + cc.val());
+    let l1 = mid + (mid * mid - det.val()).max(0.1).sqrt();
+    let radius = (3.0 * l1.sqrt()).ceil();
+    let px = t[0] * inv_z * cam.fx + cam.cx;
+    let py = t[1] * inv_z * cam.fy + cam.cy;
+    let (pxv, pyv) = (px.val(), py.val());
+    if !(pxv + radius >= 0.0 && pxv - radius <= wd && pyv + radius >= 0.0 && pyv - radius <= hd) {
+        return None;
+    }
+    let c = cam.center();
+    let dir = [mean[0] + -c.x, mean[1] + -c.y, mean[2] + -c.z];
+    let basis = sh_basis(sh_degree, dir);
+    let n = coeff_count(sh_degree).min(sh.len());
+    let rgb: [T; 3] = std::array::from_fn(|ch| {
+        let mut acc = basis[0] * sh[0][ch] as f64;
+        for k in 1..n {
+            acc = acc + basis[k] * sh[k][ch] as f64;
+        }
+        acc + 0.5
+    });
+    // shortest axis, in camera space, facing the camera (against the view ray)
+    let sv = scale.map(|v| v.val());
+    let k = (0..3)
+        .min_by(|&p, &q| sv[p].total_cmp(&sv[q]))
+        .expect("three axes");
+    let axis: [f64; 3] = std::array::from_fn(|i| {
+        rows[i][0] * rq[0][k].val() + rows[i][1] * rq[1][k].val() + rows[i][2] * rq[2][k].val()
+    });
+    let tv = t.map(|v| v.val());
+    let facing = axis[0] * tv[0] + axis[1] * tv[1] + axis[2] * tv[2] > 0.0;
+    let normal = if facing { axis.map(|v| -v) } else { axis };
+    Some(ProjectedT {
+        xy: [px, py],
+        conic,
+        rgb,
+        depth: z,
+        radius,
+        normal,
+    })
+}
+
+/// Projects one Gaussian (the 3DGS preprocess step); `None` when culled.
+pub fn project(g: &Gaussians3, i: usize, cam: &Camera, s: &RasterSettings) -> Option<Projected> {
+    let rows = rotation_rows(cam);
+    project_with(g, i, cam, &rows, s)
+}
+
+fn project_with(
+    g: &Gaussians3,
+    i: usize,
+    cam: &Camera,
+    rows: &[[f64; 3]; 3],
+    s: &RasterSettings,
+) -> Option<Projected> {
+    let n = coeff_count(g.sh_degree);
+    let p = project_t::<f64>(
+        g.means[i].map(f64::from),
+        g.scales[i].map(f64::from),
+        g.rotations[i].map(f64::from),
+        &g.sh[i * n..(i + 1) * n],
+        g.sh_degree,
+        cam,
+        rows,
+        s,
+    )?;
+    let nl = (p.normal[0] * p.normal[0] + p.normal[1] * p.normal[1] + p.normal[2] * p.normal[2])
+        .sqrt()
+        .max(1e-30);
+    Some(Projected {
+        id: i as u32,
+        xy: p.xy.map(|v| v as f32),
+        conic: p.conic.map(|v| v as f32),
+        depth: p.depth as f32,
+        radius: p.radius as f32,
+        opacity: g.opacities[i],
+        rgb: p.rgb.map(|v| v.max(0.0) as f32),
+        normal: p.normal.map(|v| (v / nl) as f32),
+    })
+}
+
+/// One pixel's outputs.
+#[derive(Clone, Copy, Debug, Default)]
+struct PixelOut {
+    rgb: [f32; 3],
+    alpha: f32,
+    expected_depth: f32,
+    median_depth: f32,
+    normal: [f32; 3],
+    count: u32,
+    /// Transmittance left after the last blended contribution.
+    final_t: f32,
+    /// List position one past the last blended contribution.
+    last: u32,
+}
+
+/// Blends the sorted list of a tile for each of its pixels (row-major).
+fn render_tile(
+    proj: &[Projected],
+    list: &[u32],
+    tx: usize,
+    ty: usize,
+    w: usize,
+    h: usize,
+    s: &RasterSettings,
+) -> Vec<PixelOut> {
+    let mut res = Vec::with_capacity(TILE * TILE);
+    for y in ty * TILE..((ty + 1) * TILE).min(h) {
+        for x in tx * TILE..((tx + 1) * TILE).min(w) {
+            let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+            let mut tr = 1.0f32;
+            let mut c = [0.0f32; 3];
+            let (mut dsum, mut wsum) = (0.0f32, 0.0f32);
+            let mut nsum = [0.0f32; 3];
+            let mut median = 0.0f32;
+            let mut n = 0u32;
+            let mut last = 0u32;
+            for (li, &pi) in list.iter().enumerate() {
+                let p = &proj[pi as usize];
+                let (dx, dy) = (p.xy[0] - px, p.xy[1] - py);
+                let power =
+                    -0.5 * (p.conic[0] * dx * dx + p.conic[2] * dy * dy) - p.conic[1] * dx * dy;
+                if power > 0.0 {
+                    continue;
+                }
+                let alpha = (p.opacity * power.exp()).min(0.99);
+                if alpha < 1.0 / 255.0 {
+                    continue;
+                }
+                let next = tr * (1.0 - alpha);
+                if next < 1e-4 {
+                    break;
+                }
+                let wgt = alpha * tr;
+                for k in 0..3 {
+                    c[k] += p.rgb[k] * wgt;
+                    nsum[k] += p.normal[k] * wgt;
+                }
+                dsum += p.depth * wgt;
+                wsum += wgt;
+                if tr > 0.5 && next <= 0.5 {
+                    median = p.depth;
+                }
+                tr = next;
+                n += 1;
+                last = li as u32 + 1;
+            }
+            let mut o = PixelOut {
+                rgb: [
+                    c[0] + tr * s.background[0],
+                    c[1] + tr * s.background[1],
+                    c[2] + tr * s.background[2],
+                ],
+                alpha: 1.0 - tr,
+                median_depth: median,
+                count: n,
+                final_t: tr,
+                last,
+                ..Default::default()
+            };
+            if wsum > 0.0 {
+                o.expected_depth = dsum / wsum;
+                let l = (nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2]).sqrt();
+                if l > 0.0 {
+                    o.normal = [nsum[0] / l, nsum[1] / l, nsum[2] / l];
+                }
+            }
+            res.push(o);
+        }
+    }
+    res
+}
+
+/// What the forward pass keeps for the backward pass: the projected
+/// Gaussians, the per-tile front-to-back lists and, per pixel, the final
+/// transmittance and the list position past its last blended contribution.
+#[derive(Clone, Debug, Default)]
+pub struct RasterState {
+    pub proj: Vec<Projected>,
+    pub lists: Vec<Vec<u32>>,
+    pub tiles_x: usize,
+    pub tiles_y: usize,
+    pub final_t: Vec<f32>,
+    pub last: Vec<u32>,
+}
+
+/// Tile lists: for each 16×16 tile, the indices into `proj` of the items
+/// whose screen box `[x0, x1] × [y0, y1]` (pixels) touches it, sorted front to
+/// back by `depth` then index (a deterministic order).
+pub(crate) fn tile_lists<P: Sync>(
+    proj: &[P],
+    boxes: impl Fn(&P) -> Option<[f32; 4]>,
+    depth: impl Fn(&P) -> f32 + Sync,
+    tw: usize,
+    th: usize,
+) -> Vec<Vec<u32>> {
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); tw * th];
+    for (pi, p) in proj.iter().enumerate() {
+        let Some([bx0, by0, bx1, by1]) = boxes(p) else {
+            continue;
+        };
+        let x0 = (bx0.floor().max(0.0) as usize) / TILE;
+        let y0 = (by0.floor().max(0.0) as usize) / TILE;
+        let x1 = ((bx1.ceil().max(0.0) as usize) / TILE).min(tw - 1);
+        let y1 = ((by1.ceil().max(0.0) as usize) / TILE).min(th - 1);
+        for ty in y0..=y1 {
+            for tx in x0..=x1 {
+                lists[ty * tw + tx].push(pi as u32);
+            }
+        }
+    }
+    lists.par_iter_mut().for_each(|l| {
+        l.sort_by(|&a, &b| {
+            depth(&proj[a as usize])
+                .total_cmp(&depth(&proj[b as usize]))
+                .then(a.cmp(&b))
+        })
+    });
+    lists
+}
+
+/// Renders `g` from `cam`.
+pub fn render(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> RenderOutput {
+    rasterize(g, cam, s).0
+}
+
+/// Renders `g` from `cam` and keeps what [`crate::gaussian_grad::backward`] needs.
+pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOutput, RasterState) {
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let rows = rotation_rows(cam);
+    let proj: Vec<Projected> = (0..g.len())
+        .into_par_iter()
+        .filter_map(|i| project_with(g, i, cam, &rows, s))
+        .collect();
+    let (tw, th) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    if tw == 0 || th == 0 {
+        return (
+            RenderOutput {
+                width: w,
+                height: h,
+                ..Default::default()
+            },
+            RasterState::default(),
+        );
+    }
+    // Gaussians whose 3σ box touches the tile, front to back
+    let lists = tile_lists(
+        &proj,
+        |p| {
+            Some([
+                p.xy[0] - p.radius,
+                p.xy[1] - p.radius,
+                p.xy[0] + p.radius,
+                p.xy[1] + p.radius,
+            ])
+        },
+        |p| p.depth,
+        tw,
+        th,
+    );
+    // Tiles render independently (in parallel), then land in the image in
+    // tile order: the result does not depend on the thread count.
+    let tiles: Vec<Vec<PixelOut>> = (0..tw * th)
+        .into_par_iter()
+        .map(|ti| render_tile(&proj, &lists[ti], ti % tw, ti / tw, w, h, s))
+        .collect();
+    let mut out = RenderOutput {
+        width: w,
+        height: h,
+        rgb: vec![[0.0; 3]; w * h],
+        alpha: vec![0.0; w * h],
+        expected_depth: vec![0.0; w * h],
+        median_depth: vec![0.0; w * h],
+        normal: vec![[0.0; 3]; w * h],
+        count: vec![0; w * h],
+    };
+    let mut final_t = vec![1.0f32; w * h];
+    let mut last = vec![0u32; w * h];
+    for (ti, tile) in tiles.into_iter().enumerate() {
+        let (tx, ty) = (ti % tw, ti / tw);
+        let mut it = tile.into_iter();
+        for y in ty * TILE..((ty + 1) * TILE).min(h) {
+            for x in tx * TILE..((tx + 1) * TILE).min(w) {
+                let p = it.next().expect("one result per pixel");
+                let o = y * w + x;
+                out.rgb[o] = p.rgb;
+                out.alpha[o] = p.alpha;
+                out.expected_depth[o] = p.expected_depth;
+                out.median_depth[o] = p.median_depth;
+                out.normal[o] = p.normal;
+                out.count[o] = p.count;
+                final_t[o] = p.final_t;
+                last[o] = p.last;
+            }
+        }
+    }
+    let state = RasterState {
+        proj,
+        lists,
+        tiles_x: tw,
+        tiles_y: th,
+        final_t,
+        last,
+    };
+    (out, state)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sh::rgb_to_sh;
+    use glam::{DMat3, DVec3};
+
+    fn camera(w: u32, h: u32, f: f64) -> Camera {
+        Camera::pinhole(
+            "c",
+            w,
+            h,
+            f,
+            f,
+            w as f64 / 2.0,
+            h as f64 / 2.0,
+            DMat3::IDENTITY,
+            DVec3::ZERO,
+        )
+    }
+
+    fn one(mean: [f32; 3], scale: [f32; 3], opacity: f32, rgb: [f32; 3]) -> Gaussians3 {
+        Gaussians3 {
+            means: vec![mean],
+            scales: vec![scale],
+            rotations: vec![[1.0, 0.0, 0.0, 0.0]],
+            opacities: vec![opacity],
+            sh: vec![rgb.map(rgb_to_sh)],
+            sh_degree: 0,
+        }
+    }
+
+    /// One Gaussian on the optical axis, isotropic across the view (σ, σ)
+    /// and thinner along it: the Jacobian's depth column vanishes on the axis,
+    /// so the image is the closed-form 2-D Gaussian with variance
+    /// (f σ / z)² + 0.3 pixels², weighted by the opacity, cut where α < 1/255;
+    /// its normal is the view axis turned to the camera.
+    #[test]
+    fn isotropic_gaussian_is_the_closed_form() {
+        let cam = camera(64, 48, 100.0);
+        let (z, sigma, op) = (5.0f32, 0.2f32, 0.8f32);
+        let g = one(
+            [0.0, 0.0, z],
+            [sigma, sigma, 0.5 * sigma],
+            op,
+            [1.0, 0.5, 0.25],
+        );
+        let img = render(&g, &cam, &RasterSettings::default());
+        let var = (100.0 * sigma / z).powi(2) as f64 + 0.3;
+        for y in 0..48 {
+            for x in 0..64 {
+                let (dx, dy) = (32.0 - (x as f64 + 0.5), 24.0 - (y as f64 + 0.5));
+                let a = (op as f64 * (-0.5 * (dx * dx + dy * dy) / var).exp()).min(0.99);
+                let want = if a < 1.0 / 255.0 { 0.0 } else { a };
+                let got = img.alpha[y * 64 + x] as f64;
+                // f32 arithmetic in the rasteriser: agreement to 1e-5
+                assert!((got - want).abs() < 1e-5, "({x},{y}) {got} vs {want}");
+                assert!((img.rgb[y * 64 + x][1] as f64 - 0.5 * want).abs() < 1e-5);
+            }
+        }
+        // expected and median depth of a single splat are its depth
+        let c = 24 * 64 + 32;
+        assert!((img.expected_depth[c] - z).abs() < 1e-5);
+        assert_eq!(img.median_depth[c], z, "α = 0.8 takes T below 0.5");
+        assert_eq!(img.count[c], 1);
+        assert_eq!(img.normal[c], [0.0, 0.0, -1.0]);
+    }
+
+    /// Two overlapping layers: C = c1 α1 + c2 α2 (1 − α1) + bg (1−α1)(1−α2),
+    /// whatever the order they are given in.
+    #[test]
+    fn two_layers_composite_front_to_back() {
+        let cam = camera(32, 32, 50.0);
+        let mut g = one([0.0, 0.0, 4.0], [10.0, 10.0, 0.01], 0.6, [1.0, 0.0, 0.0]);
+        let back = one([0.0, 0.0, 2.0], [10.0, 10.0, 0.01], 0.55, [0.0, 0.0, 1.0]);
+        g.means.extend(back.means);
+        g.scales.extend(back.scales);
+        g.rotations.extend(back.rotations);
+        g.opacities.extend(back.opacities);
+        g.sh.extend(back.sh);
+        let s = RasterSettings {
+            background: [0.0, 1.0, 0.0],
+            ..Default::default()
+        };
+        let img = render(&g, &cam, &s);
+        // wide, flat splats: α ≈ opacity at the centre (exp(−tiny))
+        let c = 16 * 32 + 16;
+        let (a1, a2) = (0.55f32, 0.6f32); // front (z 2, blue), back (z 4, red)
+        let want = [a2 * (1.0 - a1), (1.0 - a1) * (1.0 - a2), a1];
+        for k in 0..3 {
+            assert!(
+                (img.rgb[c][k] - want[k]).abs() < 1e-3,
+                "{:?} vs {want:?}",
+                img.rgb[c]
+            );
+        }
+        // T falls from 1 to 0.45 at the front layer: the median depth is 2
+        assert_eq!(img.median_depth[c], 2.0);
+        let ed = (a1 * 2.0 + a2 * (1.0 - a1) * 4.0) / (a1 + a2 * (1.0 - a1));
+        assert!((img.expected_depth[c] - ed).abs() < 1e-3);
+        assert_eq!(img.count[c], 2);
+    }
+
+    /// A plane of flat splats at depth z: median and expected depth equal z
+    /// wherever the plane covers the pixel.
+    #[test]
+    fn plane_of_splats_has_its_depth() {
+        let cam = camera(40, 40, 40.0);
+        let mut g = Gaussians3 {
+            sh_degree: 0,
+            ..Default::default()
+        };
+        let z = 3.0f32;
+        for j in -12..=12 {
+            for i in -12..=12 {
+                g.means.push([i as f32 * 0.1, j as f32 * 0.1, z]);
+                g.scales.push([0.08, 0.08, 0.001]);
+                g.rotations.push([1.0, 0.0, 0.0, 0.0]);
+                g.opacities.push(0.9);
+                g.sh.push([0.0; 3]);
+            }
+        }
+        let img = render(&g, &cam, &RasterSettings::default());
+        for y in 10..30 {
+            for x in 10..30 {
+                let o = y * 40 + x;
+                assert!(img.alpha[o] > 0.99);
+                assert_eq!(img.median_depth[o], z);
+                assert!((img.expected_depth[o] - z).abs() < 1e-5);
+            }
+        }
+    }
+}
