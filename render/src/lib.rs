@@ -12,5 +12,7 @@ pub mod gaussian_grad;
 pub mod sh;
 #[cfg(test)]
 mod testutil;
+pub mod triangle;
+pub mod triangle_grad;
 
 pub use camera::{Camera, CameraModel};

@@ -1,0 +1,606 @@
+//! Triangle-splat rasteriser with the semantics of Triangle Splatting's
+//! `diff-triangle-rasterization` (Held et al. 2025), on the CPU.
+//!
+//! Per triangle (preprocess):
+//! - culled when the opacity is below 0.01, when the view-space z of the 3-D
+//!   centroid is ≤ `near` (only the centroid is tested, as the reference does),
+//!   or when the face is seen edge-on (|cos| < 0.001 between its normal and
+//!   the view ray to the centroid);
+//! - the three vertices are projected (divide by z + 1e-7, no clipping) to
+//!   A, B, C in pixels; R = max distance from the projected 3-D centroid;
+//!   the 2-D incenter s = (a·A + b·B + c·C)/(a + b + c);
+//! - edge lines L_i(p) = n_i·p + d_i with unit normals, oriented so that the
+//!   inside is negative; φ(s) = L_0(s) = −r (the inradius, pixels);
+//! - culled when R > 1600 px, R < 1 px or r < 1 px;
+//! - tile box: the edges moved inward by r·(0.01/o)^(1/σ) (the region where
+//!   o·I ≥ 0.01), their pairwise intersections bound the touched tiles;
+//! - colour from SH at the 3-D centroid, direction from the camera centre,
+//!   + 0.5, clamped at 0; depth = view z of the centroid.
+//!
+//! Per pixel (tiles sorted by centroid depth): outside when any L_i > 0;
+//! φ = max L_i; window I = (φ/φ(s))^σ; α = min(0.99, o·I); skipped when
+//! α < 1/255; the pixel ends, without this contribution, when T would fall
+//! below 1e-4. Outputs as [`crate::gaussian::RenderOutput`]: depth and normal
+//! are the triangle's centroid depth and camera-facing face normal.
+//!
+//! Pixel centres are at integer + 0.5 in OpenCV pixel coordinates; with the
+//! principal point at the image centre this is the reference's convention
+//! (its pixel centres at integers after its own half-pixel shift).
+
+use rayon::prelude::*;
+
+use crate::Camera;
+use crate::dual::{Real, cross3, dot3, sh_basis};
+use crate::gaussian::{RasterSettings, RenderOutput, TILE, rotation_rows, tile_lists};
+use crate::sh::coeff_count;
+
+/// Triangles as the rasteriser wants them: activated values.
+#[derive(Clone, Debug, Default)]
+pub struct Triangles3 {
+    /// Three vertices per triangle, world units.
+    pub vertices: Vec<[[f32; 3]; 3]>,
+    /// Window sharpness σ > 0 (Triangle Splatting: 0.01 + exp(raw)).
+    pub sigmas: Vec<f32>,
+    /// Opacities in [0, 1].
+    pub opacities: Vec<f32>,
+    /// SH coefficients, coefficient-major, `(degree+1)²` per triangle.
+    pub sh: Vec<[f32; 3]>,
+    /// SH degree, 0–3.
+    pub sh_degree: usize,
+}
+
+impl Triangles3 {
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.vertices.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.vertices.is_empty()
+    }
+}
+
+/// One projected triangle.
+#[derive(Clone, Copy, Debug)]
+pub struct ProjectedTri {
+    pub id: u32,
+    /// Edge lines (n_x, n_y, d): L(p) = n·p + d, negative inside.
+    pub edges: [[f32; 3]; 3],
+    /// φ(s) = −inradius (pixels).
+    pub phi_s: f32,
+    pub sigma: f32,
+    pub opacity: f32,
+    pub rgb: [f32; 3],
+    pub depth: f32,
+    /// Camera-space face normal facing the camera.
+    pub normal: [f32; 3],
+    /// Tile box in pixels (x0, y0, x1, y1).
+    pub bbox: [f32; 4],
+}
+
+/// The differentiable part of a triangle's projection.
+pub(crate) struct ProjectedTriT<T> {
+    pub edges: [[T; 3]; 3],
+    pub phi_s: T,
+    /// SH colour + 0.5 before the clamp.
+    pub rgb: [T; 3],
+    pub depth: f64,
+    pub normal: [f64; 3],
+    pub bbox: [f64; 4],
+}
+
+/// Projects one triangle; `None` when culled. `verts` are world positions.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn project_tri_t<T: Real>(
+    verts: [[T; 3]; 3],
+    sigma: f32,
+    opacity: f32,
+    sh: &[[f32; 3]],
+    sh_degree: usize,
+    cam: &Camera,
+    rows: &[[f64; 3]; 3],
+    s: &RasterSettings,
+) -> Option<ProjectedTriT<T>> {
+    if opacity.is_nan() || opacity < 0.01 || sigma.is_nan() || sigma <= 0.0 {
+        return None;
+    }
+    let tr = cam.translation;
+    let view = verts.map(|v| -> [T; 3] {
+        std::array::from_fn(|i| v[0] * rows[i][0] + v[1] * rows[i][1] + v[2] * rows[i][2] + tr[i])
+    });
+    let third = 1.0 / 3.0;
+    let c3: [T; 3] = std::array::from_fn(|i| (view[0][i] + view[1][i] + view[2][i]) * third);
+    let z = c3[2].val();
+    if z.is_nan() || z <= s.near {
+        return None;
+    }
+    // face normal, for culling and the normal map
+    let e1: [f64; 3] = std::array::from_fn(|i| view[1][i].val() - view[0][i].val());
+    let e2: [f64; 3] = std::array::from_fn(|i| view[2][i].val() - view[0][i].val());
+    let nrm = cross3(e1, e2);
+    let nl = dot3(nrm, nrm).sqrt().max(1e-4);
+    let mut normal = nrm.map(|v| v / nl);
+    let cv = c3.map(|v| v.val());
+    let cl = dot3(cv, cv).sqrt();
+    let cos = dot3(normal, cv) / cl;
+    if cos > 0.0 {
+        normal = normal.map(|v| -v);
+    }
+    if cos.is_nan() || cos.abs() < 0.001 {
+        return None;
+    }
+    let proj = |p: [T; 3]| -> [T; 2] {
+        let iz = T::cst(1.0) / (p[2] + 1e-7);
+        [p[0] * iz * cam.fx + cam.cx, p[1] * iz * cam.fy + cam.cy]
+    };
+    let pv = view.map(proj);
+    let c2 = proj(c3);
+    let dist = |a: [T; 2], b: [T; 2]| {
+        let (dx, dy) = (a[0] - b[0], a[1] - b[1]);
+        (dx * dx + dy * dy).sqrt()
+    };
+    let big_r = (0..3).map(|i| dist(pv[i], c2).val()).fold(0.0f64, f64::max);
+    let la = dist(pv[1], pv[2]);
+    let lb = dist(pv[0], pv[2]);
+    let lc = dist(pv[0], pv[1]);
+    let per = la + lb + lc;
+    if per.val().is_nan() || per.val() <= 0.0 {
+        return None;
+    }
+    let inc: [T; 2] =
+        std::array::from_fn(|k| (pv[0][k] * la + pv[1][k] * lb + pv[2][k] * lc) / per);
+    let mut edges = [[T::cst(0.0); 3]; 3];
+    for i in 0..3 {
+        let (p, q) = (pv[i], pv[(i + 1) % 3]);
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        let l = (dx * dx + dy * dy).sqrt();
+        if l.val().is_nan() || l.val() <= 0.0 {
+            return None;
+        }
+        let (mut nx, mut ny) = (dy / l, -dx / l);
+        let mut d = -(nx * p[0] + ny * p[1]);
+        if (nx * inc[0] + ny * inc[1] + d).val() > 0.0 {
+            nx = -nx;
+            ny = -ny;
+            d = -d;
+        }
+        edges[i] = [nx, ny, d];
+    }
+    let phi_s = edges[0][0] * inc[0] + edges[0][1] * inc[1] + edges[0][2];
+    if big_r.is_nan() || big_r > 1600.0 || big_r < 1.0 || phi_s.val().is_nan() || phi_s.val() > -1.0
+    {
+        return None;
+    }
+    // tile box of the region where o·I ≥ 0.01: edges moved inward
+    let shrink = -phi_s.val() * (0.01 / opacity as f64).powf(1.0 / sigma as f64);
+    let ev = edges.map(|e| e.map(|v| v.val()));
+    let mut bbox = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    let mut corners = 0;
+    for i in 0..3 {
+        let (a, b) = (ev[i], ev[(i + 1) % 3]);
+        let det = a[0] * b[1] - a[1] * b[0];
+        if det.abs() < 1e-3 {
+            continue;
+        }
+        let (da, db) = (a[2] + shrink, b[2] + shrink);
+        let x = (-da * b[1] + db * a[1]) / det;
+        let y = (-a[0] * db + b[0] * da) / det;
+        bbox = [
+            bbox[0].min(x),
+            bbox[1].min(y),
+            bbox[2].max(x),
+            bbox[3].max(y),
+        ];
+        corners += 1;
+    }
+    if corners == 0 {
+        return None;
+    }
+    let (wd, hd) = (cam.width as f64, cam.height as f64);
+    if bbox[2] < 0.0 || bbox[3] < 0.0 || bbox[0] > wd || bbox[1] > hd {
+        return None;
+    }
+    let world_c: [T; 3] =
+        std::array::from_fn(|i| (verts[0][i] + verts[1][i] + verts[2][i]) * third);
+    let cc = cam.center();
+    let dir = [world_c[0] + -cc.x, world_c[1] + -cc.y, world_c[2] + -cc.z];
+    let basis = sh_basis(sh_degree, dir);
+    let n = coeff_count(sh_degree).min(sh.len());
+    let rgb: [T; 3] = std::array::from_fn(|ch| {
+        let mut acc = basis[0] * sh[0][ch] as f64;
+        for k in 1..n {
+            acc = acc + basis[k] * sh[k][ch] as f64;
+        }
+        acc + 0.5
+    });
+    Some(ProjectedTriT {
+        edges,
+        phi_s,
+        rgb,
+        depth: z,
+        normal,
+        bbox,
+    })
+}
+
+fn project_tri(
+    t: &Triangles3,
+    i: usize,
+    cam: &Camera,
+    rows: &[[f64; 3]; 3],
+    s: &RasterSettings,
+) -> Option<ProjectedTri> {
+    let n = coeff_count(t.sh_degree);
+    let p = project_tri_t::<f64>(
+        t.vertices[i].map(|v| v.map(f64::from)),
+        t.sigmas[i],
+        t.opacities[i],
+        &t.sh[i * n..(i + 1) * n],
+        t.sh_degree,
+        cam,
+        rows,
+        s,
+    )?;
+    Some(ProjectedTri {
+        id: i as u32,
+        edges: p.edges.map(|e| e.map(|v| v as f32)),
+        phi_s: p.phi_s as f32,
+        sigma: t.sigmas[i],
+        opacity: t.opacities[i],
+        rgb: p.rgb.map(|v| v.max(0.0) as f32),
+        depth: p.depth as f32,
+        normal: p.normal.map(|v| v as f32),
+        bbox: p.bbox.map(|v| v as f32),
+    })
+}
+
+/// The window value I(p) of a projected triangle at pixel position (x, y),
+/// with the index of the edge that gives φ; `None` outside.
+#[inline]
+pub(crate) fn window(p: &ProjectedTri, x: f32, y: f32) -> Option<(f32, usize, f32)> {
+    let mut phi = f32::NEG_INFINITY;
+    let mut arg = 0;
+    for (k, e) in p.edges.iter().enumerate() {
+        let l = e[0] * x + e[1] * y + e[2];
+        if l > 0.0 {
+            return None;
+        }
+        if l > phi {
+            phi = l;
+            arg = k;
+        }
+    }
+    let ratio = phi / p.phi_s;
+    Some((ratio.powf(p.sigma), arg, phi))
+}
+
+/// What the backward pass needs from the forward pass.
+#[derive(Clone, Debug, Default)]
+pub struct TriangleState {
+    pub proj: Vec<ProjectedTri>,
+    pub lists: Vec<Vec<u32>>,
+    pub tiles_x: usize,
+    pub final_t: Vec<f32>,
+    pub last: Vec<u32>,
+}
+
+/// Renders `t` from `cam`.
+pub fn render(t: &Triangles3, cam: &Camera, s: &RasterSettings) -> RenderOutput {
+    rasterize(t, cam, s).0
+}
+
+/// Renders `t` from `cam` and keeps what [`crate::triangle_grad::backward`] needs.
+pub fn rasterize(
+    t: &Triangles3,
+    cam: &Camera,
+    s: &RasterSettings,
+) -> (RenderOutput, TriangleState) {
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let rows = rotation_rows(cam);
+    let proj: Vec<ProjectedTri> = (0..t.len())
+        .into_par_iter()
+        .filter_map(|i| project_tri(t, i, cam, &rows, s))
+        .collect();
+    let (tw, th) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    let mut out = RenderOutput {
+        width: w,
+        height: h,
+        rgb: vec![s.background; w * h],
+        alpha: vec![0.0; w * h],
+        expected_depth: vec![0.0; w * h],
+        median_depth: vec![0.0; w * h],
+        normal: vec![[0.0; 3]; w * h],
+        count: vec![0; w * h],
+    };
+    if tw == 0 || th == 0 {
+        return (out, TriangleState::default());
+    }
+    let lists = tile_lists(&proj, |p| Some(p.bbox), |p| p.depth, tw, th);
+    // tiles in parallel, landed in tile order: independent of the thread count
+    let tiles: Vec<Vec<Shaded>> = (0..tw * th)
+        .into_par_iter()
+        .map(|ti| {
+            let (tx, ty) = (ti % tw, ti / tw);
+            let mut res = Vec::with_capacity(TILE * TILE);
+            for y in ty * TILE..((ty + 1) * TILE).min(h) {
+                for x in tx * TILE..((tx + 1) * TILE).min(w) {
+                    res.push(shade(&proj, &lists[ti], x, y, s));
+                }
+            }
+            res
+        })
+        .collect();
+    let mut final_t = vec![1.0f32; w * h];
+    let mut lastv = vec![0u32; w * h];
+    for (ti, tile) in tiles.into_iter().enumerate() {
+        let (tx, ty) = (ti % tw, ti / tw);
+        let mut it = tile.into_iter();
+        for y in ty * TILE..((ty + 1) * TILE).min(h) {
+            for x in tx * TILE..((tx + 1) * TILE).min(w) {
+                let px = it.next().expect("one result per pixel");
+                let o = y * w + x;
+                out.rgb[o] = px.rgb;
+                out.alpha[o] = 1.0 - px.final_t;
+                out.expected_depth[o] = px.expected_depth;
+                out.median_depth[o] = px.median_depth;
+                out.normal[o] = px.normal;
+                out.count[o] = px.count;
+                final_t[o] = px.final_t;
+                lastv[o] = px.last;
+            }
+        }
+    }
+    let state = TriangleState {
+        proj,
+        lists,
+        tiles_x: tw,
+        final_t,
+        last: lastv,
+    };
+    (out, state)
+}
+
+/// One pixel's outputs.
+#[derive(Clone, Copy, Debug, Default)]
+struct Shaded {
+    rgb: [f32; 3],
+    expected_depth: f32,
+    median_depth: f32,
+    normal: [f32; 3],
+    count: u32,
+    final_t: f32,
+    last: u32,
+}
+
+/// Blends the tile list `list` front to back at pixel (x, y).
+fn shade(proj: &[ProjectedTri], list: &[u32], x: usize, y: usize, s: &RasterSettings) -> Shaded {
+    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+    let mut tr = 1.0f32;
+    let mut c = [0.0f32; 3];
+    let mut nsum = [0.0f32; 3];
+    let (mut dsum, mut wsum, mut median, mut n, mut last) = (0.0f32, 0.0f32, 0.0f32, 0u32, 0u32);
+    for (li, &pi) in list.iter().enumerate() {
+        let p = &proj[pi as usize];
+        let Some((win, _, _)) = window(p, px, py) else {
+            continue;
+        };
+        let alpha = (p.opacity * win).min(0.99);
+        if alpha < 1.0 / 255.0 {
+            continue;
+        }
+        let next = tr * (1.0 - alpha);
+        if next < 1e-4 {
+            break;
+        }
+        let wgt = alpha * tr;
+        for k in 0..3 {
+            c[k] += p.rgb[k] * wgt;
+            nsum[k] += p.normal[k] * wgt;
+        }
+        dsum += p.depth * wgt;
+        wsum += wgt;
+        if tr > 0.5 && next <= 0.5 {
+            median = p.depth;
+        }
+        tr = next;
+        n += 1;
+        last = li as u32 + 1;
+    }
+    let mut o = Shaded {
+        rgb: std::array::from_fn(|k| c[k] + tr * s.background[k]),
+        count: n,
+        final_t: tr,
+        last,
+        median_depth: median,
+        ..Default::default()
+    };
+    if wsum > 0.0 {
+        o.expected_depth = dsum / wsum;
+        let l = (nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2]).sqrt();
+        if l > 0.0 {
+            o.normal = nsum.map(|v| v / l);
+        }
+    }
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sh::rgb_to_sh;
+    use crate::testutil::test_camera;
+
+    fn one(v: [[f32; 3]; 3], sigma: f32, opacity: f32, rgb: [f32; 3]) -> Triangles3 {
+        Triangles3 {
+            vertices: vec![v],
+            sigmas: vec![sigma],
+            opacities: vec![opacity],
+            sh: vec![rgb.map(rgb_to_sh)],
+            sh_degree: 0,
+        }
+    }
+
+    /// σ → 0: the window is 1 wherever φ < 0, so α = opacity exactly on the
+    /// pixels whose centre lies inside the projected triangle (an independent
+    /// f64 point-in-triangle test) and 0 elsewhere: the exact pixel coverage.
+    #[test]
+    fn hard_triangle_covers_exactly_its_pixels() {
+        let cam = test_camera(64, 48, 80.0);
+        let z = 4.0f32;
+        let v = [[-1.3f32, -0.9, z], [1.45, -0.2, z], [-0.2, 1.1, z]];
+        let img = render(
+            &one(v, 1e-6, 0.7, [1.0, 1.0, 1.0]),
+            &cam,
+            &RasterSettings::default(),
+        );
+        let p2: Vec<[f64; 2]> = v
+            .iter()
+            .map(|p| {
+                [
+                    80.0 * p[0] as f64 / z as f64 + 32.0,
+                    80.0 * p[1] as f64 / z as f64 + 24.0,
+                ]
+            })
+            .collect();
+        let edge = |a: [f64; 2], b: [f64; 2], x: f64, y: f64| {
+            (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0])
+        };
+        let mut inside_count = 0;
+        for y in 0..48 {
+            for x in 0..64 {
+                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                let e = [
+                    edge(p2[0], p2[1], px, py),
+                    edge(p2[1], p2[2], px, py),
+                    edge(p2[2], p2[0], px, py),
+                ];
+                let inside = e.iter().all(|&v| v > 0.0) || e.iter().all(|&v| v < 0.0);
+                let a = img.alpha[y * 64 + x];
+                if inside {
+                    inside_count += 1;
+                    // (φ/φ(s))^1e-6 ≥ 0.99998 for φ/φ(s) ≥ 1e-9
+                    assert!((a - 0.7).abs() < 1e-4, "({x},{y}) inside, α {a}");
+                } else {
+                    assert_eq!(a, 0.0, "({x},{y}) outside");
+                }
+            }
+        }
+        // area of the projected triangle ≈ number of covered pixel centres
+        let area = 0.5 * edge(p2[0], p2[1], p2[2][0], p2[2][1]).abs();
+        assert!((inside_count as f64 - area).abs() < 0.05 * area);
+    }
+
+    /// The window at the incenter is 1 and falls as (φ/φ(s))^σ toward the
+    /// edges; two overlapping layers composite as hand-computed.
+    #[test]
+    fn two_layers_composite_and_window_shape() {
+        let cam = test_camera(32, 32, 40.0);
+        // big triangles centred on the optical axis
+        let tri = |z: f32| {
+            [
+                [-3.0 * z, -2.0 * z, z],
+                [3.0 * z, -2.0 * z, z],
+                [0.0, 4.0 * z, z],
+            ]
+        };
+        let mut t = one(tri(2.0), 1.0, 0.6, [1.0, 0.0, 0.0]);
+        let back = one(tri(3.0), 1.0, 0.5, [0.0, 0.0, 1.0]);
+        t.vertices.extend(back.vertices);
+        t.sigmas.extend(back.sigmas);
+        t.opacities.extend(back.opacities);
+        t.sh.extend(back.sh);
+        let s = RasterSettings {
+            background: [0.0, 1.0, 0.0],
+            ..Default::default()
+        };
+        let img = render(&t, &cam, &s);
+        // Both triangles project to the same 2-D triangle (scaled with z):
+        // incenter at (16, 16 + 0) in pixels? The incenter of the isosceles
+        // triangle (−3,−2),(3,−2),(0,4) (units of f/z·z = 40 px) is at
+        // (0, −2 + r) with r = area/semiperimeter.
+        let (a, b) = (6.0f64, (9.0f64 + 36.0).sqrt());
+        let r = 0.5 * 6.0 * 6.0 / (0.5 * (a + 2.0 * b));
+        let phi_s = -r * 40.0;
+        // pixel (16, 16): centre (16.5, 16.5) → (0.0125, 0.0125) in units
+        let (ux, uy) = (0.5 / 40.0, 0.5 / 40.0);
+        // φ = max over the edges of the signed distances (pixels)
+        let d_bottom = -(uy + 2.0);
+        let n1 = [6.0, 3.0].map(|v: f64| v / 45f64.sqrt()); // right edge normal
+        let d_right = n1[0] * (ux - 3.0) + n1[1] * (uy + 2.0);
+        let n2 = [-6.0, 3.0].map(|v: f64| v / 45f64.sqrt());
+        let d_left = n2[0] * (ux + 3.0) + n2[1] * (uy + 2.0);
+        let phi = d_bottom.max(d_right).max(d_left) * 40.0;
+        let win = phi / phi_s;
+        let (a1, a2) = (0.6 * win, 0.5 * win);
+        let want = [a1, (1.0 - a1) * (1.0 - a2), a2 * (1.0 - a1)];
+        let c = 16 * 32 + 16;
+        for k in 0..3 {
+            assert!(
+                (img.rgb[c][k] as f64 - want[k]).abs() < 1e-4,
+                "{:?} vs {want:?}",
+                img.rgb[c]
+            );
+        }
+        assert_eq!(img.count[c], 2);
+        assert_eq!(img.median_depth[c], 2.0, "the front layer takes T to 0.4");
+        let ed = (a1 * 2.0 + a2 * (1.0 - a1) * 3.0) / (a1 + a2 * (1.0 - a1));
+        assert!((img.expected_depth[c] as f64 - ed).abs() < 1e-4);
+        assert_eq!(img.normal[c], [0.0, 0.0, -1.0]);
+    }
+
+    /// Culling rules: tiny (inradius < 1 px), edge-on, behind the near plane,
+    /// transparent (o < 0.01) triangles draw nothing.
+    #[test]
+    fn culled_triangles_draw_nothing() {
+        let cam = test_camera(32, 32, 40.0);
+        let cases = [
+            one(
+                [[0.0, 0.0, 4.0], [0.05, 0.0, 4.0], [0.0, 0.05, 4.0]],
+                1.0,
+                0.9,
+                [1.0; 3],
+            ),
+            one(
+                [[-1.0, 0.0, 3.0], [1.0, 0.0, 3.0], [0.0, 0.0, 5.0]],
+                1.0,
+                0.9,
+                [1.0; 3],
+            ),
+            one(
+                [[-1.0, -1.0, 0.1], [1.0, -1.0, 0.1], [0.0, 1.0, 0.1]],
+                1.0,
+                0.9,
+                [1.0; 3],
+            ),
+            one(
+                [[-1.0, -1.0, 4.0], [1.0, -1.0, 4.0], [0.0, 1.0, 4.0]],
+                1.0,
+                0.005,
+                [1.0; 3],
+            ),
+        ];
+        for (k, t) in cases.iter().enumerate() {
+            let img = render(t, &cam, &RasterSettings::default());
+            assert!(img.alpha.iter().all(|&a| a == 0.0), "case {k}");
+        }
+        // and the control: the same as the last with o = 0.9 draws
+        let t = one(
+            [[-1.0, -1.0, 4.0], [1.0, -1.0, 4.0], [0.0, 1.0, 4.0]],
+            1.0,
+            0.9,
+            [1.0; 3],
+        );
+        assert!(
+            render(&t, &cam, &RasterSettings::default())
+                .alpha
+                .iter()
+                .any(|&a| a > 0.5)
+        );
+    }
+}
