@@ -168,8 +168,7 @@ pub(crate) fn project_tri_t<T: Real>(
         edges[i] = [nx, ny, d];
     }
     let phi_s = edges[0][0] * inc[0] + edges[0][1] * inc[1] + edges[0][2];
-    if big_r.is_nan() || big_r > 1600.0 || big_r < 1.0 || phi_s.val().is_nan() || phi_s.val() > -1.0
-    {
+    if !(1.0..=1600.0).contains(&big_r) || phi_s.val().is_nan() || phi_s.val() > -1.0 {
         return None;
     }
     // tile box of the region where o·I ≥ 0.01: edges moved inward

@@ -218,10 +218,10 @@ mod tests {
             let mut px = [[0.0f32; 2]; 3];
             for (k, p) in px.iter_mut().enumerate() {
                 let a = th + k as f32 * 2.0 * std::f32::consts::FRAC_PI_3;
-                let jitter = if k == 0 { 30.0 } else { 4.0 };
+                let jitter: f64 = if k == 0 { 30.0 } else { 4.0 };
                 *p = [
-                    ix + 2.0 * rin * a.cos() + r.range(-jitter as f64, jitter as f64),
-                    iy + 2.0 * rin * a.sin() + r.range(-jitter as f64, jitter as f64),
+                    ix + 2.0 * rin * a.cos() + r.range(-jitter, jitter),
+                    iy + 2.0 * rin * a.sin() + r.range(-jitter, jitter),
                 ];
             }
             let mut v = [[0.0f32; 3]; 3];
