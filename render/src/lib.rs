@@ -9,6 +9,9 @@ pub mod camera;
 pub mod dual;
 pub mod gaussian;
 pub mod gaussian_grad;
+pub mod loss;
+pub mod mesh;
+pub mod optim;
 pub mod sh;
 #[cfg(test)]
 mod testutil;
