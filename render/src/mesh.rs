@@ -32,6 +32,9 @@ pub struct MeshRender {
 /// No face at this pixel.
 pub const NO_FACE: u32 = u32::MAX;
 
+/// Face id, barycentrics, depth, normal of one pixel.
+type Hit = (u32, [f32; 2], f32, [f32; 3]);
+
 struct Face {
     v: [[f64; 3]; 3],
     bbox: [f32; 4],
@@ -106,7 +109,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
         tw,
         th,
     );
-    let tiles: Vec<Vec<(u32, [f32; 2], f32, [f32; 3])>> = (0..tw * th)
+    let tiles: Vec<Vec<Hit>> = (0..tw * th)
         .into_par_iter()
         .map(|ti| {
             let (tx, ty) = (ti % tw, ti / tw);
