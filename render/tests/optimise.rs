@@ -184,7 +184,7 @@ fn triangles_recover_a_target() {
     for _ in 0..n {
         let c = [r.f(-1.6, 1.6), r.f(-1.6, 1.6), r.f(3.5, 4.5)];
         let rad = r.f(0.3, 0.6);
-        let a0 = r.f(0.0, 6.28);
+        let a0 = r.f(0.0, std::f32::consts::TAU);
         let v: [[f32; 3]; 3] = std::array::from_fn(|k| {
             let a = a0 + k as f32 * 2.1 + r.f(-0.3, 0.3);
             [
