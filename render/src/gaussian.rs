@@ -109,6 +109,14 @@ pub struct Projected {
     pub depth: f32,
     /// Screen radius in pixels.
     pub radius: f32,
+    /// Half-extents (x, y) of the ellipse outside which α < 1/255 (pixels):
+    /// the exact bounding box of o·G ≥ 1/255, with a small margin. Pixels
+    /// outside it would be skipped anyway, so tiles and pixels outside it are
+    /// not visited (same output, less work).
+    pub ext: [f32; 2],
+    /// ln(1/(255·o)) − 1e-4: below this exponent α < 1/255 for certain, and
+    /// the exponential need not be evaluated.
+    pub power_cut: f32,
     pub opacity: f32,
     pub rgb: [f32; 3],
     /// Camera-space normal facing the camera.
@@ -124,6 +132,8 @@ pub(crate) struct ProjectedT<T> {
     pub rgb: [T; 3],
     pub depth: f64,
     pub radius: f64,
+    /// 2-D covariance diagonal (Σ'_xx, Σ'_yy), pixels².
+    pub cov_diag: [f64; 2],
     /// Camera-space normal facing the camera.
     pub normal: [f64; 3],
 }
@@ -254,6 +264,7 @@ pub(crate) fn project_t<T: Real>(
         rgb,
         depth: z,
         radius,
+        cov_diag: [ca.val(), cc.val()],
         normal,
     })
 }
@@ -282,6 +293,13 @@ fn project_with(
         rows,
         s,
     )?;
+    let op = g.opacities[i];
+    // o·G ≥ 1/255 ⇔ dᵀΣ'⁻¹d ≤ 2·ln(255·o); nothing is drawn when o < 1/255
+    if op.is_nan() || op * 255.0 < 1.0 {
+        return None;
+    }
+    let level = 2.0 * (255.0 * op as f64).ln();
+    let ext = p.cov_diag.map(|c| ((level * c).sqrt() * (1.0 + 1e-4) + 1e-3) as f32);
     let nl = (p.normal[0] * p.normal[0] + p.normal[1] * p.normal[1] + p.normal[2] * p.normal[2])
         .sqrt()
         .max(1e-30);
@@ -291,7 +309,9 @@ fn project_with(
         conic: p.conic.map(|v| v as f32),
         depth: p.depth as f32,
         radius: p.radius as f32,
-        opacity: g.opacities[i],
+        ext,
+        power_cut: (-(255.0 * op as f64).ln() - 1e-4) as f32,
+        opacity: op,
         rgb: p.rgb.map(|v| v.max(0.0) as f32),
         normal: p.normal.map(|v| (v / nl) as f32),
     })
@@ -312,7 +332,50 @@ struct PixelOut {
     last: u32,
 }
 
+/// The pixels of tile (tx, ty) that a projected Gaussian can reach:
+/// inclusive column and row ranges in image coordinates, `None` if empty.
+#[inline]
+pub(crate) fn pixel_span(
+    p: &Projected,
+    tx: usize,
+    ty: usize,
+    w: usize,
+    h: usize,
+) -> Option<(usize, usize, usize, usize)> {
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    let (x1, y1) = (((tx + 1) * TILE).min(w) - 1, ((ty + 1) * TILE).min(h) - 1);
+    // pixel centres c = i + 0.5 with |c − μ| ≤ ext
+    let lo = |m: f32, e: f32, a: usize| (m - e - 0.5).ceil().max(a as f32) as usize;
+    let hi = |m: f32, e: f32, b: usize| {
+        let v = (m + e - 0.5).floor();
+        if v < 0.0 { None } else { Some((v as usize).min(b)) }
+    };
+    let xa = lo(p.xy[0], p.ext[0], x0);
+    let ya = lo(p.xy[1], p.ext[1], y0);
+    let xb = hi(p.xy[0], p.ext[0], x1)?;
+    let yb = hi(p.xy[1], p.ext[1], y1)?;
+    (xa <= xb && ya <= yb).then_some((xa, xb, ya, yb))
+}
+
+/// Per-pixel accumulators of one tile.
+#[derive(Clone, Copy)]
+struct Acc {
+    t: f32,
+    c: [f32; 3],
+    nsum: [f32; 3],
+    dsum: f32,
+    wsum: f32,
+    median: f32,
+    n: u32,
+    last: u32,
+    done: bool,
+}
+
 /// Blends the sorted list of a tile for each of its pixels (row-major).
+///
+/// Gaussian-major: each Gaussian visits only the pixels of its ellipse box;
+/// every pixel still sees the contributions in list order with the same f32
+/// operations as a per-pixel loop, so the result is the same.
 fn render_tile(
     proj: &[Projected],
     list: &[u32],
@@ -322,65 +385,87 @@ fn render_tile(
     h: usize,
     s: &RasterSettings,
 ) -> Vec<PixelOut> {
-    let mut res = Vec::with_capacity(TILE * TILE);
-    for y in ty * TILE..((ty + 1) * TILE).min(h) {
-        for x in tx * TILE..((tx + 1) * TILE).min(w) {
-            let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-            let mut tr = 1.0f32;
-            let mut c = [0.0f32; 3];
-            let (mut dsum, mut wsum) = (0.0f32, 0.0f32);
-            let mut nsum = [0.0f32; 3];
-            let mut median = 0.0f32;
-            let mut n = 0u32;
-            let mut last = 0u32;
-            for (li, &pi) in list.iter().enumerate() {
-                let p = &proj[pi as usize];
-                let (dx, dy) = (p.xy[0] - px, p.xy[1] - py);
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    let mut acc = [Acc {
+        t: 1.0,
+        c: [0.0; 3],
+        nsum: [0.0; 3],
+        dsum: 0.0,
+        wsum: 0.0,
+        median: 0.0,
+        n: 0,
+        last: 0,
+        done: false,
+    }; TILE * TILE];
+    let pixels = (((tx + 1) * TILE).min(w) - x0) * (((ty + 1) * TILE).min(h) - y0);
+    let mut active = pixels;
+    for (li, &pi) in list.iter().enumerate() {
+        if active == 0 {
+            break;
+        }
+        let p = &proj[pi as usize];
+        let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
+            continue;
+        };
+        for y in ya..=yb {
+            let py = y as f32 + 0.5;
+            let dy = p.xy[1] - py;
+            for x in xa..=xb {
+                let a = &mut acc[(y - y0) * TILE + (x - x0)];
+                if a.done {
+                    continue;
+                }
+                let dx = p.xy[0] - (x as f32 + 0.5);
                 let power =
                     -0.5 * (p.conic[0] * dx * dx + p.conic[2] * dy * dy) - p.conic[1] * dx * dy;
-                if power > 0.0 {
+                if power > 0.0 || power < p.power_cut {
                     continue;
                 }
                 let alpha = (p.opacity * power.exp()).min(0.99);
                 if alpha < 1.0 / 255.0 {
                     continue;
                 }
-                let next = tr * (1.0 - alpha);
+                let next = a.t * (1.0 - alpha);
                 if next < 1e-4 {
-                    break;
+                    a.done = true;
+                    active -= 1;
+                    continue;
                 }
-                let wgt = alpha * tr;
+                let wgt = alpha * a.t;
                 for k in 0..3 {
-                    c[k] += p.rgb[k] * wgt;
-                    nsum[k] += p.normal[k] * wgt;
+                    a.c[k] += p.rgb[k] * wgt;
+                    a.nsum[k] += p.normal[k] * wgt;
                 }
-                dsum += p.depth * wgt;
-                wsum += wgt;
-                if tr > 0.5 && next <= 0.5 {
-                    median = p.depth;
+                a.dsum += p.depth * wgt;
+                a.wsum += wgt;
+                if a.t > 0.5 && next <= 0.5 {
+                    a.median = p.depth;
                 }
-                tr = next;
-                n += 1;
-                last = li as u32 + 1;
+                a.t = next;
+                a.n += 1;
+                a.last = li as u32 + 1;
             }
+        }
+    }
+    let mut res = Vec::with_capacity(pixels);
+    for y in y0..((ty + 1) * TILE).min(h) {
+        for x in x0..((tx + 1) * TILE).min(w) {
+            let a = &acc[(y - y0) * TILE + (x - x0)];
             let mut o = PixelOut {
-                rgb: [
-                    c[0] + tr * s.background[0],
-                    c[1] + tr * s.background[1],
-                    c[2] + tr * s.background[2],
-                ],
-                alpha: 1.0 - tr,
-                median_depth: median,
-                count: n,
-                final_t: tr,
-                last,
+                rgb: std::array::from_fn(|k| a.c[k] + a.t * s.background[k]),
+                alpha: 1.0 - a.t,
+                median_depth: a.median,
+                count: a.n,
+                final_t: a.t,
+                last: a.last,
                 ..Default::default()
             };
-            if wsum > 0.0 {
-                o.expected_depth = dsum / wsum;
-                let l = (nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2]).sqrt();
+            if a.wsum > 0.0 {
+                o.expected_depth = a.dsum / a.wsum;
+                let l = (a.nsum[0] * a.nsum[0] + a.nsum[1] * a.nsum[1] + a.nsum[2] * a.nsum[2])
+                    .sqrt();
                 if l > 0.0 {
-                    o.normal = [nsum[0] / l, nsum[1] / l, nsum[2] / l];
+                    o.normal = a.nsum.map(|v| v / l);
                 }
             }
             res.push(o);
@@ -412,9 +497,23 @@ pub(crate) fn tile_lists<P: Sync>(
     tw: usize,
     th: usize,
 ) -> Vec<Vec<u32>> {
+    // one global sort by (depth, index); lists filled in that order are
+    // sorted already
+    let key = |d: f32| {
+        // order-preserving map of f32 bits to u32 (total order)
+        let b = d.to_bits();
+        if b >> 31 == 1 { !b } else { b | 0x8000_0000 }
+    };
+    let mut order: Vec<u64> = proj
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| ((key(depth(p)) as u64) << 32) | i as u64)
+        .collect();
+    order.par_sort_unstable();
     let mut lists: Vec<Vec<u32>> = vec![Vec::new(); tw * th];
-    for (pi, p) in proj.iter().enumerate() {
-        let Some([bx0, by0, bx1, by1]) = boxes(p) else {
+    for k in order {
+        let pi = (k & 0xffff_ffff) as usize;
+        let Some([bx0, by0, bx1, by1]) = boxes(&proj[pi]) else {
             continue;
         };
         let x0 = (bx0.floor().max(0.0) as usize) / TILE;
@@ -427,13 +526,6 @@ pub(crate) fn tile_lists<P: Sync>(
             }
         }
     }
-    lists.par_iter_mut().for_each(|l| {
-        l.sort_by(|&a, &b| {
-            depth(&proj[a as usize])
-                .total_cmp(&depth(&proj[b as usize]))
-                .then(a.cmp(&b))
-        })
-    });
     lists
 }
 
@@ -465,12 +557,9 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
     let lists = tile_lists(
         &proj,
         |p| {
-            Some([
-                p.xy[0] - p.radius,
-                p.xy[1] - p.radius,
-                p.xy[0] + p.radius,
-                p.xy[1] + p.radius,
-            ])
+            // the 3σ box of the reference, cut to where α can reach 1/255
+            let (rx, ry) = (p.radius.min(p.ext[0]), p.radius.min(p.ext[1]));
+            Some([p.xy[0] - rx, p.xy[1] - ry, p.xy[0] + rx, p.xy[1] + ry])
         },
         |p| p.depth,
         tw,
@@ -651,6 +740,75 @@ mod tests {
                 assert!(img.alpha[o] > 0.99);
                 assert_eq!(img.median_depth[o], z);
                 assert!((img.expected_depth[o] - z).abs() < 1e-5);
+            }
+        }
+    }
+
+    /// The tile-and-span machinery (opacity-aware tile boxes, per-Gaussian
+    /// pixel spans, the exponent cut, the global depth sort) is a speed-up
+    /// only: the image equals, bit for bit, a plain per-pixel loop over the
+    /// reference's tile lists (3σ boxes) on a random scene with thin,
+    /// elongated, opaque and faint Gaussians.
+    #[test]
+    fn fast_path_equals_the_plain_loop() {
+        use crate::testutil::Lcg;
+        let cam = camera(80, 56, 70.0);
+        let mut r = Lcg(4);
+        let mut g = Gaussians3 {
+            sh_degree: 1,
+            ..Default::default()
+        };
+        for _ in 0..400 {
+            g.means.push([r.range(-3.0, 3.0), r.range(-2.0, 2.0), r.range(2.0, 6.0)]);
+            g.scales.push([r.range(0.01, 0.4), r.range(0.005, 0.1), r.range(0.001, 0.3)]);
+            g.rotations.push([r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)]);
+            g.opacities.push(if r.next_f64() < 0.3 { 1.0 } else { r.range(0.0, 1.0) });
+            for _ in 0..4 {
+                g.sh.push([r.range(-0.5, 0.5), r.range(-0.5, 0.5), r.range(-0.5, 0.5)]);
+            }
+        }
+        let s = RasterSettings::default();
+        let img = render(&g, &cam, &s);
+        let rows = rotation_rows(&cam);
+        let mut proj: Vec<Projected> = (0..g.len())
+            .filter_map(|i| project_with(&g, i, &cam, &rows, &s))
+            .collect();
+        proj.sort_by(|a, b| a.depth.total_cmp(&b.depth).then(a.id.cmp(&b.id)));
+        let tile_of = |p: &Projected, tx: usize, ty: usize| {
+            let x0 = ((p.xy[0] - p.radius).floor().max(0.0) as usize) / TILE;
+            let y0 = ((p.xy[1] - p.radius).floor().max(0.0) as usize) / TILE;
+            let x1 = ((p.xy[0] + p.radius).ceil().max(0.0) as usize) / TILE;
+            let y1 = ((p.xy[1] + p.radius).ceil().max(0.0) as usize) / TILE;
+            (x0..=x1).contains(&tx) && (y0..=y1).contains(&ty)
+        };
+        for y in 0..56 {
+            for x in 0..80 {
+                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                let (mut t, mut c) = (1.0f32, [0.0f32; 3]);
+                for p in proj.iter().filter(|p| tile_of(p, x / TILE, y / TILE)) {
+                    let (dx, dy) = (p.xy[0] - px, p.xy[1] - py);
+                    let power = -0.5 * (p.conic[0] * dx * dx + p.conic[2] * dy * dy)
+                        - p.conic[1] * dx * dy;
+                    if power > 0.0 {
+                        continue;
+                    }
+                    let alpha = (p.opacity * power.exp()).min(0.99);
+                    if alpha < 1.0 / 255.0 {
+                        continue;
+                    }
+                    let next = t * (1.0 - alpha);
+                    if next < 1e-4 {
+                        break;
+                    }
+                    let wgt = alpha * t;
+                    for k in 0..3 {
+                        c[k] += p.rgb[k] * wgt;
+                    }
+                    t = next;
+                }
+                let o = y * 80 + x;
+                assert_eq!(img.alpha[o], 1.0 - t, "({x},{y})");
+                assert_eq!(img.rgb[o], c, "({x},{y})");
             }
         }
     }
