@@ -233,6 +233,21 @@ pub fn sh_basis<T: Real>(degree: usize, dir: [T; 3]) -> [T; 16] {
     out
 }
 
+/// SH colour + 0.5 (unclamped) of a primitive at `point`, seen from the
+/// camera centre `eye` (direction point − eye).
+pub fn sh_rgb<T: Real>(point: [T; 3], eye: [f64; 3], sh: &[[f32; 3]], sh_degree: usize) -> [T; 3] {
+    let dir = [point[0] + -eye[0], point[1] + -eye[1], point[2] + -eye[2]];
+    let basis = sh_basis(sh_degree, dir);
+    let n = crate::sh::coeff_count(sh_degree).min(sh.len());
+    std::array::from_fn(|ch| {
+        let mut acc = basis[0] * sh[0][ch] as f64;
+        for k in 1..n {
+            acc = acc + basis[k] * sh[k][ch] as f64;
+        }
+        acc + 0.5
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

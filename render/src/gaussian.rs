@@ -29,11 +29,11 @@
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::dual::{Real, dot3, sh_basis};
+use crate::dual::{Real, dot3, sh_rgb};
 use crate::sh::coeff_count;
 
-/// Tile side in pixels.
-pub const TILE: usize = 16;
+pub use crate::tiles::TILE;
+use crate::tiles::TileLists;
 
 /// Gaussians as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -145,13 +145,14 @@ pub(crate) fn rotation_rows(cam: &Camera) -> [[f64; 3]; 3] {
 }
 
 /// Projects one Gaussian given its mean, scales and quaternion (w, x, y, z;
-/// normalised here) and its SH coefficients; `None` when culled.
+/// normalised here) and its SH coefficients (`None`: colour left at 0, for
+/// a caller that differentiates it separately); `None` when culled.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn project_t<T: Real>(
     mean: [T; 3],
     scale: [T; 3],
     quat: [T; 4],
-    sh: &[[f32; 3]],
+    sh: Option<&[[f32; 3]]>,
     sh_degree: usize,
     cam: &Camera,
     rows: &[[f64; 3]; 3],
@@ -236,17 +237,10 @@ pub(crate) fn project_t<T: Real>(
     if !(pxv + radius >= 0.0 && pxv - radius <= wd && pyv + radius >= 0.0 && pyv - radius <= hd) {
         return None;
     }
-    let c = cam.center();
-    let dir = [mean[0] + -c.x, mean[1] + -c.y, mean[2] + -c.z];
-    let basis = sh_basis(sh_degree, dir);
-    let n = coeff_count(sh_degree).min(sh.len());
-    let rgb: [T; 3] = std::array::from_fn(|ch| {
-        let mut acc = basis[0] * sh[0][ch] as f64;
-        for k in 1..n {
-            acc = acc + basis[k] * sh[k][ch] as f64;
-        }
-        acc + 0.5
-    });
+    let rgb = match sh {
+        Some(sh) => sh_rgb(mean, cam.center().to_array(), sh, sh_degree),
+        None => [T::cst(0.0); 3],
+    };
     // shortest axis, in camera space, facing the camera (against the view ray)
     let sv = scale.map(|v| v.val());
     let k = (0..3)
@@ -287,7 +281,7 @@ fn project_with(
         g.means[i].map(f64::from),
         g.scales[i].map(f64::from),
         g.rotations[i].map(f64::from),
-        &g.sh[i * n..(i + 1) * n],
+        Some(&g.sh[i * n..(i + 1) * n]),
         g.sh_degree,
         cam,
         rows,
@@ -299,7 +293,9 @@ fn project_with(
         return None;
     }
     let level = 2.0 * (255.0 * op as f64).ln();
-    let ext = p.cov_diag.map(|c| ((level * c).sqrt() * (1.0 + 1e-4) + 1e-3) as f32);
+    let ext = p
+        .cov_diag
+        .map(|c| ((level * c).sqrt() * (1.0 + 1e-4) + 1e-3) as f32);
     let nl = (p.normal[0] * p.normal[0] + p.normal[1] * p.normal[1] + p.normal[2] * p.normal[2])
         .sqrt()
         .max(1e-30);
@@ -348,7 +344,11 @@ pub(crate) fn pixel_span(
     let lo = |m: f32, e: f32, a: usize| (m - e - 0.5).ceil().max(a as f32) as usize;
     let hi = |m: f32, e: f32, b: usize| {
         let v = (m + e - 0.5).floor();
-        if v < 0.0 { None } else { Some((v as usize).min(b)) }
+        if v < 0.0 {
+            None
+        } else {
+            Some((v as usize).min(b))
+        }
     };
     let xa = lo(p.xy[0], p.ext[0], x0);
     let ya = lo(p.xy[1], p.ext[1], y0);
@@ -462,8 +462,8 @@ fn render_tile(
             };
             if a.wsum > 0.0 {
                 o.expected_depth = a.dsum / a.wsum;
-                let l = (a.nsum[0] * a.nsum[0] + a.nsum[1] * a.nsum[1] + a.nsum[2] * a.nsum[2])
-                    .sqrt();
+                let l =
+                    (a.nsum[0] * a.nsum[0] + a.nsum[1] * a.nsum[1] + a.nsum[2] * a.nsum[2]).sqrt();
                 if l > 0.0 {
                     o.normal = a.nsum.map(|v| v / l);
                 }
@@ -480,53 +480,9 @@ fn render_tile(
 #[derive(Clone, Debug, Default)]
 pub struct RasterState {
     pub proj: Vec<Projected>,
-    pub lists: Vec<Vec<u32>>,
-    pub tiles_x: usize,
-    pub tiles_y: usize,
+    pub tiles: TileLists,
     pub final_t: Vec<f32>,
     pub last: Vec<u32>,
-}
-
-/// Tile lists: for each 16×16 tile, the indices into `proj` of the items
-/// whose screen box `[x0, x1] × [y0, y1]` (pixels) touches it, sorted front to
-/// back by `depth` then index (a deterministic order).
-pub(crate) fn tile_lists<P: Sync>(
-    proj: &[P],
-    boxes: impl Fn(&P) -> Option<[f32; 4]>,
-    depth: impl Fn(&P) -> f32 + Sync,
-    tw: usize,
-    th: usize,
-) -> Vec<Vec<u32>> {
-    // one global sort by (depth, index); lists filled in that order are
-    // sorted already
-    let key = |d: f32| {
-        // order-preserving map of f32 bits to u32 (total order)
-        let b = d.to_bits();
-        if b >> 31 == 1 { !b } else { b | 0x8000_0000 }
-    };
-    let mut order: Vec<u64> = proj
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| ((key(depth(p)) as u64) << 32) | i as u64)
-        .collect();
-    order.par_sort_unstable();
-    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); tw * th];
-    for k in order {
-        let pi = (k & 0xffff_ffff) as usize;
-        let Some([bx0, by0, bx1, by1]) = boxes(&proj[pi]) else {
-            continue;
-        };
-        let x0 = (bx0.floor().max(0.0) as usize) / TILE;
-        let y0 = (by0.floor().max(0.0) as usize) / TILE;
-        let x1 = ((bx1.ceil().max(0.0) as usize) / TILE).min(tw - 1);
-        let y1 = ((by1.ceil().max(0.0) as usize) / TILE).min(th - 1);
-        for ty in y0..=y1 {
-            for tx in x0..=x1 {
-                lists[ty * tw + tx].push(pi as u32);
-            }
-        }
-    }
-    lists
 }
 
 /// Renders `g` from `cam`.
@@ -554,7 +510,7 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
         );
     }
     // Gaussians whose 3σ box touches the tile, front to back
-    let lists = tile_lists(
+    let tiles = TileLists::build(
         &proj,
         |p| {
             // the 3σ box of the reference, cut to where α can reach 1/255
@@ -562,12 +518,13 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
             Some([p.xy[0] - rx, p.xy[1] - ry, p.xy[0] + rx, p.xy[1] + ry])
         },
         |p| p.depth,
-        tw,
-        th,
+        w,
+        h,
     );
+    let lists = &tiles.lists;
     // Tiles render independently (in parallel), then land in the image in
     // tile order: the result does not depend on the thread count.
-    let tiles: Vec<Vec<PixelOut>> = (0..tw * th)
+    let rendered: Vec<Vec<PixelOut>> = (0..tw * th)
         .into_par_iter()
         .map(|ti| render_tile(&proj, &lists[ti], ti % tw, ti / tw, w, h, s))
         .collect();
@@ -583,7 +540,7 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
     };
     let mut final_t = vec![1.0f32; w * h];
     let mut last = vec![0u32; w * h];
-    for (ti, tile) in tiles.into_iter().enumerate() {
+    for (ti, tile) in rendered.into_iter().enumerate() {
         let (tx, ty) = (ti % tw, ti / tw);
         let mut it = tile.into_iter();
         for y in ty * TILE..((ty + 1) * TILE).min(h) {
@@ -603,9 +560,7 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
     }
     let state = RasterState {
         proj,
-        lists,
-        tiles_x: tw,
-        tiles_y: th,
+        tiles,
         final_t,
         last,
     };
@@ -759,10 +714,21 @@ mod tests {
             ..Default::default()
         };
         for _ in 0..400 {
-            g.means.push([r.range(-3.0, 3.0), r.range(-2.0, 2.0), r.range(2.0, 6.0)]);
-            g.scales.push([r.range(0.01, 0.4), r.range(0.005, 0.1), r.range(0.001, 0.3)]);
-            g.rotations.push([r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)]);
-            g.opacities.push(if r.next_f64() < 0.3 { 1.0 } else { r.range(0.0, 1.0) });
+            g.means
+                .push([r.range(-3.0, 3.0), r.range(-2.0, 2.0), r.range(2.0, 6.0)]);
+            g.scales
+                .push([r.range(0.01, 0.4), r.range(0.005, 0.1), r.range(0.001, 0.3)]);
+            g.rotations.push([
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+            ]);
+            g.opacities.push(if r.next_f64() < 0.3 {
+                1.0
+            } else {
+                r.range(0.0, 1.0)
+            });
             for _ in 0..4 {
                 g.sh.push([r.range(-0.5, 0.5), r.range(-0.5, 0.5), r.range(-0.5, 0.5)]);
             }
@@ -787,8 +753,8 @@ mod tests {
                 let (mut t, mut c) = (1.0f32, [0.0f32; 3]);
                 for p in proj.iter().filter(|p| tile_of(p, x / TILE, y / TILE)) {
                     let (dx, dy) = (p.xy[0] - px, p.xy[1] - py);
-                    let power = -0.5 * (p.conic[0] * dx * dx + p.conic[2] * dy * dy)
-                        - p.conic[1] * dx * dy;
+                    let power =
+                        -0.5 * (p.conic[0] * dx * dx + p.conic[2] * dy * dy) - p.conic[1] * dx * dy;
                     if power > 0.0 {
                         continue;
                     }
@@ -801,8 +767,8 @@ mod tests {
                         break;
                     }
                     let wgt = alpha * t;
-                    for k in 0..3 {
-                        c[k] += p.rgb[k] * wgt;
+                    for (ck, rk) in c.iter_mut().zip(p.rgb) {
+                        *ck += rk * wgt;
                     }
                     t = next;
                 }

@@ -25,8 +25,10 @@
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::dual::Dual;
-use crate::gaussian::{Gaussians3, RasterSettings, RasterState, TILE, project_t, rotation_rows};
+use crate::dual::{Dual, sh_rgb};
+use crate::gaussian::{
+    Gaussians3, RasterSettings, RasterState, TILE, pixel_span, project_t, rotation_rows,
+};
 use crate::sh::{basis, coeff_count};
 
 /// Gradients, shaped like [`Gaussians3`]'s fields.
@@ -37,6 +39,19 @@ pub struct GaussianGrads {
     pub rotations: Vec<[f32; 4]>,
     pub opacities: Vec<f32>,
     pub sh: Vec<[f32; 3]>,
+}
+
+/// One pixel's state in the backward walk.
+#[derive(Clone, Copy, Default)]
+struct PixelBack {
+    /// Transmittance in front of the current contribution.
+    t: f32,
+    t_final: f32,
+    /// Colour behind the current contribution (normalised).
+    behind: [f32; 3],
+    gc: [f32; 3],
+    ga: f32,
+    last: u32,
 }
 
 /// Per projected Gaussian: ∂L/∂(x, y, conic a, b, c, opacity, r, g, b).
@@ -57,34 +72,53 @@ pub fn backward(
 ) -> GaussianGrads {
     let (w, h) = (cam.width as usize, cam.height as usize);
     assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
-    let tw = state.tiles_x;
+    let tw = state.tiles.tiles_x;
     let proj = &state.proj;
     // 1. per tile, per list entry
-    let tile_grads: Vec<Vec<Screen>> = (0..state.lists.len())
+    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.lists.len())
         .into_par_iter()
         .map(|ti| {
-            let list = &state.lists[ti];
+            let list = &state.tiles.lists[ti];
             let mut acc = vec![[0.0f32; 9]; list.len()];
             let (tx, ty) = (ti % tw, ti / tw);
-            for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                for x in tx * TILE..((tx + 1) * TILE).min(w) {
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            // per-pixel state of the backward walk
+            let mut px_state = [PixelBack::default(); TILE * TILE];
+            let mut max_last = 0;
+            for y in y0..((ty + 1) * TILE).min(h) {
+                for x in x0..((tx + 1) * TILE).min(w) {
                     let o = y * w + x;
-                    let last = state.last[o] as usize;
-                    if last == 0 {
-                        continue;
-                    }
-                    let gc = d_rgb[o];
-                    let ga = d_alpha.map_or(0.0, |a| a[o]);
-                    let t_final = state.final_t[o];
-                    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                    let mut t = t_final;
-                    let mut behind = s.background;
-                    for li in (0..last).rev() {
-                        let p = &proj[list[li] as usize];
-                        let (dx, dy) = (p.xy[0] - px, p.xy[1] - py);
+                    max_last = max_last.max(state.last[o]);
+                    px_state[(y - y0) * TILE + (x - x0)] = PixelBack {
+                        t: state.final_t[o],
+                        t_final: state.final_t[o],
+                        behind: s.background,
+                        gc: d_rgb[o],
+                        ga: d_alpha.map_or(0.0, |a| a[o]),
+                        last: state.last[o],
+                    };
+                }
+            }
+            // Gaussian-major, back to front: each pixel still walks its own
+            // contributions in reverse list order
+            for li in (0..max_last as usize).rev() {
+                let p = &proj[list[li] as usize];
+                let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
+                    continue;
+                };
+                let mut e = [0.0f32; 9];
+                for y in ya..=yb {
+                    let py = y as f32 + 0.5;
+                    let dy = p.xy[1] - py;
+                    for x in xa..=xb {
+                        let b = &mut px_state[(y - y0) * TILE + (x - x0)];
+                        if li as u32 >= b.last {
+                            continue;
+                        }
+                        let dx = p.xy[0] - (x as f32 + 0.5);
                         let power = -0.5 * (p.conic[0] * dx * dx + p.conic[2] * dy * dy)
                             - p.conic[1] * dx * dy;
-                        if power > 0.0 {
+                        if power > 0.0 || power < p.power_cut {
                             continue;
                         }
                         let gauss = power.exp();
@@ -94,16 +128,15 @@ pub fn backward(
                             continue;
                         }
                         // transmittance in front of this Gaussian
-                        t /= 1.0 - alpha;
-                        let wgt = alpha * t;
-                        let e = &mut acc[li];
+                        b.t /= 1.0 - alpha;
+                        let wgt = alpha * b.t;
                         let mut d_a = 0.0f32;
                         for k in 0..3 {
-                            e[6 + k] += gc[k] * wgt;
-                            d_a += gc[k] * (p.rgb[k] - behind[k]) * t;
-                            behind[k] = alpha * p.rgb[k] + (1.0 - alpha) * behind[k];
+                            e[6 + k] += b.gc[k] * wgt;
+                            d_a += b.gc[k] * (p.rgb[k] - b.behind[k]) * b.t;
+                            b.behind[k] = alpha * p.rgb[k] + (1.0 - alpha) * b.behind[k];
                         }
-                        d_a += ga * t_final / (1.0 - alpha);
+                        d_a += b.ga * b.t_final / (1.0 - alpha);
                         if raw >= 0.99 {
                             continue;
                         }
@@ -116,19 +149,12 @@ pub fn backward(
                         e[4] += -0.5 * d_power * dy * dy;
                     }
                 }
+                acc[li] = e;
             }
             acc
         })
         .collect();
-    let mut screen = vec![[0.0f64; 9]; proj.len()];
-    for (ti, acc) in tile_grads.iter().enumerate() {
-        for (li, e) in acc.iter().enumerate() {
-            let dst = &mut screen[state.lists[ti][li] as usize];
-            for k in 0..9 {
-                dst[k] += e[k] as f64;
-            }
-        }
-    }
+    let screen = state.tiles.gather(&tile_grads);
     // 2. per Gaussian, through the projection
     let n = g.len();
     let nc = coeff_count(g.sh_degree);
@@ -154,7 +180,7 @@ pub fn backward(
             let sh = &g.sh[i * nc..(i + 1) * nc];
             let mut grad = [0.0f64; 10];
             let mut dsh = [[0.0f32; 3]; 16];
-            if let Some(pt) = project_t(mean, scale, quat, sh, g.sh_degree, cam, &rows, s) {
+            if let Some(pt) = project_t(mean, scale, quat, None, g.sh_degree, cam, &rows, s) {
                 let outs = [
                     (pt.xy[0], d[0]),
                     (pt.xy[1], d[1]),
@@ -170,6 +196,9 @@ pub fn backward(
                 for (v, gv) in outs {
                     add(&v, gv);
                 }
+                // colour: depends on the mean only, through the view direction
+                let m3: [Dual<3>; 3] = std::array::from_fn(|k| Dual::var(g.means[i][k] as f64, k));
+                let rgb = sh_rgb(m3, center.to_array(), sh, g.sh_degree);
                 let dir = [
                     (g.means[i][0] as f64 - center.x) as f32,
                     (g.means[i][1] as f64 - center.y) as f32,
@@ -178,10 +207,12 @@ pub fn backward(
                 let mut b = [0.0f32; 16];
                 basis(g.sh_degree, dir, &mut b);
                 for ch in 0..3 {
-                    if pt.rgb[ch].v < 0.0 {
+                    if rgb[ch].v < 0.0 {
                         continue; // clamped colour
                     }
-                    add(&pt.rgb[ch], d[6 + ch]);
+                    for (gk, dk) in grad.iter_mut().zip(rgb[ch].d) {
+                        *gk += dk * d[6 + ch];
+                    }
                     for k in 0..nc {
                         dsh[k][ch] = b[k] * d[6 + ch] as f32;
                     }

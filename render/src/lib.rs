@@ -15,6 +15,7 @@ pub mod optim;
 pub mod sh;
 #[cfg(test)]
 mod testutil;
+pub mod tiles;
 pub mod triangle;
 pub mod triangle_grad;
 

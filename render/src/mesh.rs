@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::gaussian::{TILE, tile_lists};
+use crate::tiles::{TILE, TileLists};
 
 /// The z-buffer outputs, row-major `width × height`.
 #[derive(Clone, Debug, Default)]
@@ -102,14 +102,15 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
             Some(Face { v, bbox, depth })
         })
         .collect();
-    let lists = tile_lists(
+    let tiles = TileLists::build(
         &prepared,
         |f| f.as_ref().map(|f| f.bbox),
         |f| f.as_ref().map_or(f32::INFINITY, |f| f.depth),
-        tw,
-        th,
+        w,
+        h,
     );
-    let tiles: Vec<Vec<Hit>> = (0..tw * th)
+    let lists = &tiles.lists;
+    let hits: Vec<Vec<Hit>> = (0..tw * th)
         .into_par_iter()
         .map(|ti| {
             let (tx, ty) = (ti % tw, ti / tw);
@@ -147,7 +148,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
             res
         })
         .collect();
-    for (ti, tile) in tiles.into_iter().enumerate() {
+    for (ti, tile) in hits.into_iter().enumerate() {
         let (tx, ty) = (ti % tw, ti / tw);
         let mut it = tile.into_iter();
         for y in ty * TILE..((ty + 1) * TILE).min(h) {

@@ -30,9 +30,10 @@
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::dual::{Real, cross3, dot3, sh_basis};
-use crate::gaussian::{RasterSettings, RenderOutput, TILE, rotation_rows, tile_lists};
+use crate::dual::{Real, cross3, dot3, sh_rgb};
+use crate::gaussian::{RasterSettings, RenderOutput, rotation_rows};
 use crate::sh::coeff_count;
+use crate::tiles::{TILE, TileLists};
 
 /// Triangles as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -207,17 +208,7 @@ pub(crate) fn project_tri_t<T: Real>(
     }
     let world_c: [T; 3] =
         std::array::from_fn(|i| (verts[0][i] + verts[1][i] + verts[2][i]) * third);
-    let cc = cam.center();
-    let dir = [world_c[0] + -cc.x, world_c[1] + -cc.y, world_c[2] + -cc.z];
-    let basis = sh_basis(sh_degree, dir);
-    let n = coeff_count(sh_degree).min(sh.len());
-    let rgb: [T; 3] = std::array::from_fn(|ch| {
-        let mut acc = basis[0] * sh[0][ch] as f64;
-        for k in 1..n {
-            acc = acc + basis[k] * sh[k][ch] as f64;
-        }
-        acc + 0.5
-    });
+    let rgb = sh_rgb(world_c, cam.center().to_array(), sh, sh_degree);
     Some(ProjectedTriT {
         edges,
         phi_s,
@@ -283,8 +274,7 @@ pub(crate) fn window(p: &ProjectedTri, x: f32, y: f32) -> Option<(f32, usize, f3
 #[derive(Clone, Debug, Default)]
 pub struct TriangleState {
     pub proj: Vec<ProjectedTri>,
-    pub lists: Vec<Vec<u32>>,
-    pub tiles_x: usize,
+    pub tiles: TileLists,
     pub final_t: Vec<f32>,
     pub last: Vec<u32>,
 }
@@ -320,9 +310,10 @@ pub fn rasterize(
     if tw == 0 || th == 0 {
         return (out, TriangleState::default());
     }
-    let lists = tile_lists(&proj, |p| Some(p.bbox), |p| p.depth, tw, th);
+    let tiles = TileLists::build(&proj, |p| Some(p.bbox), |p| p.depth, w, h);
+    let lists = &tiles.lists;
     // tiles in parallel, landed in tile order: independent of the thread count
-    let tiles: Vec<Vec<Shaded>> = (0..tw * th)
+    let rendered: Vec<Vec<Shaded>> = (0..tw * th)
         .into_par_iter()
         .map(|ti| {
             let (tx, ty) = (ti % tw, ti / tw);
@@ -337,7 +328,7 @@ pub fn rasterize(
         .collect();
     let mut final_t = vec![1.0f32; w * h];
     let mut lastv = vec![0u32; w * h];
-    for (ti, tile) in tiles.into_iter().enumerate() {
+    for (ti, tile) in rendered.into_iter().enumerate() {
         let (tx, ty) = (ti % tw, ti / tw);
         let mut it = tile.into_iter();
         for y in ty * TILE..((ty + 1) * TILE).min(h) {
@@ -357,8 +348,7 @@ pub fn rasterize(
     }
     let state = TriangleState {
         proj,
-        lists,
-        tiles_x: tw,
+        tiles,
         final_t,
         last: lastv,
     };

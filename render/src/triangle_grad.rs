@@ -47,12 +47,12 @@ pub fn backward(
 ) -> TriangleGrads {
     let (w, h) = (cam.width as usize, cam.height as usize);
     assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
-    let tw = state.tiles_x;
+    let tw = state.tiles.tiles_x;
     let proj = &state.proj;
-    let tile_grads: Vec<Vec<Screen>> = (0..state.lists.len())
+    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.lists.len())
         .into_par_iter()
         .map(|ti| {
-            let list = &state.lists[ti];
+            let list = &state.tiles.lists[ti];
             let mut acc = vec![[0.0f32; 15]; list.len()];
             let (tx, ty) = (ti % tw, ti / tw);
             for y in ty * TILE..((ty + 1) * TILE).min(h) {
@@ -107,15 +107,7 @@ pub fn backward(
             acc
         })
         .collect();
-    let mut screen = vec![[0.0f64; 15]; proj.len()];
-    for (ti, acc) in tile_grads.iter().enumerate() {
-        for (li, e) in acc.iter().enumerate() {
-            let dst = &mut screen[state.lists[ti][li] as usize];
-            for k in 0..15 {
-                dst[k] += e[k] as f64;
-            }
-        }
-    }
+    let screen = state.tiles.gather(&tile_grads);
     let n = t.len();
     let nc = coeff_count(t.sh_degree);
     let mut out = TriangleGrads {
