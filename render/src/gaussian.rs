@@ -521,12 +521,11 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
         w,
         h,
     );
-    let lists = &tiles.lists;
     // Tiles render independently (in parallel), then land in the image in
     // tile order: the result does not depend on the thread count.
     let rendered: Vec<Vec<PixelOut>> = (0..tw * th)
         .into_par_iter()
-        .map(|ti| render_tile(&proj, &lists[ti], ti % tw, ti / tw, w, h, s))
+        .map(|ti| render_tile(&proj, tiles.list(ti), ti % tw, ti / tw, w, h, s))
         .collect();
     let mut out = RenderOutput {
         width: w,

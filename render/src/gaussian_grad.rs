@@ -75,10 +75,10 @@ pub fn backward(
     let tw = state.tiles.tiles_x;
     let proj = &state.proj;
     // 1. per tile, per list entry
-    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.lists.len())
+    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.len())
         .into_par_iter()
         .map(|ti| {
-            let list = &state.tiles.lists[ti];
+            let list = state.tiles.list(ti);
             let mut acc = vec![[0.0f32; 9]; list.len()];
             let (tx, ty) = (ti % tw, ti / tw);
             let (x0, y0) = (tx * TILE, ty * TILE);

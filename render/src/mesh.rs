@@ -109,7 +109,6 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
         w,
         h,
     );
-    let lists = &tiles.lists;
     let hits: Vec<Vec<Hit>> = (0..tw * th)
         .into_par_iter()
         .map(|ti| {
@@ -125,7 +124,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                     ];
                     let mut best: (f64, u32, [f64; 2], [f64; 3]) =
                         (f64::INFINITY, NO_FACE, [0.0; 2], [0.0; 3]);
-                    for &fi in &lists[ti] {
+                    for &fi in tiles.list(ti) {
                         let f = prepared[fi as usize].as_ref().expect("listed faces exist");
                         if f.depth as f64 > best.0 {
                             break; // sorted by nearest vertex depth

@@ -15,8 +15,10 @@ pub const TILE: usize = 16;
 /// The binned primitives of one view.
 #[derive(Clone, Debug, Default)]
 pub struct TileLists {
-    /// Per tile (row-major), indices of the primitives touching it, front to back.
-    pub lists: Vec<Vec<u32>>,
+    /// Per tile (row-major), its range in `entries` (CSR offsets, tiles + 1).
+    offsets: Vec<usize>,
+    /// Indices of the primitives touching each tile, front to back.
+    entries: Vec<u32>,
     pub tiles_x: usize,
     pub tiles_y: usize,
     /// Per primitive: inclusive tile rectangle (x0, y0, x1, y1) or `None`.
@@ -72,23 +74,79 @@ impl TileLists {
             .map(|(i, p)| ((key(depth(p)) as u64) << 32) | i as u64)
             .collect();
         order.par_sort_unstable();
-        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); tw * th];
-        let mut start = vec![0u32; n];
-        let mut pos = Vec::new();
-        for k in order {
-            let pi = (k & 0xffff_ffff) as usize;
-            let [x0, y0, x1, y1] = rects[pi].expect("filtered");
-            start[pi] = pos.len() as u32;
-            for ty in y0 as usize..=y1 as usize {
-                for tx in x0 as usize..=x1 as usize {
-                    let l = &mut lists[ty * tw + tx];
-                    pos.push(l.len() as u32);
-                    l.push(pi as u32);
+        // counts per tile, in parallel over chunks of the sorted order
+        let rect_of = |k: &u64| rects[(k & 0xffff_ffff) as usize].expect("filtered");
+        let chunk = order
+            .len()
+            .div_ceil(rayon::current_num_threads() * 4)
+            .max(1);
+        let counts: Vec<Vec<u32>> = order
+            .par_chunks(chunk)
+            .map(|c| {
+                let mut cnt = vec![0u32; tw * th];
+                for k in c {
+                    let [x0, y0, x1, y1] = rect_of(k);
+                    for ty in y0 as usize..=y1 as usize {
+                        for tx in x0 as usize..=x1 as usize {
+                            cnt[ty * tw + tx] += 1;
+                        }
+                    }
                 }
+                cnt
+            })
+            .collect();
+        let nt = tw * th;
+        let mut offsets = vec![0usize; nt + 1];
+        for t in 0..nt {
+            offsets[t + 1] = offsets[t] + counts.iter().map(|c| c[t] as usize).sum::<usize>();
+        }
+        // where each chunk starts writing in each tile's range
+        let mut chunk_at: Vec<Vec<usize>> = Vec::with_capacity(counts.len());
+        let mut run = offsets[..nt].to_vec();
+        for c in &counts {
+            chunk_at.push(run.clone());
+            for t in 0..nt {
+                run[t] += c[t] as usize;
             }
         }
+        // where each primitive's positions start, in sorted order
+        let mut start = vec![0u32; n];
+        let mut total = 0usize;
+        for k in &order {
+            let [x0, y0, x1, y1] = rect_of(k);
+            start[(k & 0xffff_ffff) as usize] = total as u32;
+            total += (x1 - x0 + 1) as usize * (y1 - y0 + 1) as usize;
+        }
+        let mut entries = vec![0u32; offsets[nt]];
+        let mut pos = vec![0u32; total];
+        let (ep, pp) = (SharedSlice::new(&mut entries), SharedSlice::new(&mut pos));
+        order
+            .par_chunks(chunk)
+            .zip(chunk_at.into_par_iter())
+            .for_each(|(c, mut at)| {
+                for k in c {
+                    let pi = (k & 0xffff_ffff) as usize;
+                    let [x0, y0, x1, y1] = rect_of(k);
+                    let mut q = start[pi] as usize;
+                    for ty in y0 as usize..=y1 as usize {
+                        for tx in x0 as usize..=x1 as usize {
+                            let t = ty * tw + tx;
+                            // SAFETY: chunk c owns entries[at[t]..] up to its
+                            // count for tile t, and pos[start[pi]..] belongs
+                            // to pi alone: every index is written once.
+                            unsafe {
+                                ep.write(at[t], pi as u32);
+                                pp.write(q, (at[t] - offsets[t]) as u32);
+                            }
+                            at[t] += 1;
+                            q += 1;
+                        }
+                    }
+                }
+            });
         TileLists {
-            lists,
+            offsets,
+            entries,
             tiles_x: tw,
             tiles_y: th,
             rects,
@@ -97,8 +155,23 @@ impl TileLists {
         }
     }
 
+    /// Number of tiles.
+    pub fn len(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// True when the image has no tiles.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The primitives touching tile `t`, front to back.
+    pub fn list(&self, t: usize) -> &[u32] {
+        &self.entries[self.offsets[t]..self.offsets[t + 1]]
+    }
+
     /// Sums, per primitive, the per-tile values aligned with the lists
-    /// (`per_tile[t][k]` belongs to `lists[t][k]`), in f64, tiles in
+    /// (`per_tile[t][k]` belongs to `list(t)[k]`), in f64, tiles in
     /// row-major order: deterministic and parallel over primitives.
     pub fn gather<const K: usize>(&self, per_tile: &[Vec<[f32; K]>]) -> Vec<[f64; K]> {
         (0..self.rects.len())
@@ -121,5 +194,68 @@ impl TileLists {
                 acc
             })
             .collect()
+    }
+}
+
+/// A slice that several threads write at disjoint indices.
+struct SharedSlice<T> {
+    ptr: *mut T,
+    len: usize,
+}
+
+// SAFETY: used only for writes at indices that no two threads share.
+unsafe impl<T: Send> Sync for SharedSlice<T> {}
+// SAFETY: as above; the pointer is only written through `write`.
+unsafe impl<T: Send> Send for SharedSlice<T> {}
+
+impl<T> SharedSlice<T> {
+    fn new(v: &mut [T]) -> Self {
+        SharedSlice {
+            ptr: v.as_mut_ptr(),
+            len: v.len(),
+        }
+    }
+
+    /// # Safety
+    /// No other thread may access index `i` concurrently.
+    unsafe fn write(&self, i: usize, v: T) {
+        assert!(i < self.len, "index {i} out of {}", self.len);
+        // SAFETY: in bounds (checked), exclusive by the caller's contract.
+        unsafe { self.ptr.add(i).write(v) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Lists are sorted by (depth, index), hold exactly the primitives whose
+    /// box touches the tile, and `gather` sums per primitive.
+    #[test]
+    fn lists_and_gather() {
+        // boxes (x0, y0, x1, y1) on a 40×40 image (3×3 tiles), depths
+        let items = [
+            ([0.0f32, 0.0, 20.0, 5.0], 3.0f32),
+            ([17.0, 17.0, 18.0, 18.0], 1.0),
+            ([-5.0, -5.0, 100.0, 100.0], 2.0),
+            ([50.0, 50.0, 60.0, 60.0], 0.5), // off-image
+            ([30.0, 0.0, 39.0, 39.0], 2.0),
+        ];
+        let tl = TileLists::build(&items, |p| Some(p.0), |p| p.1, 40, 40);
+        assert_eq!(tl.len(), 9);
+        assert_eq!(tl.list(0), &[2, 0]);
+        assert_eq!(tl.list(1), &[2, 4, 0], "x 30 lies in tile column 1");
+        assert_eq!(tl.list(4), &[1, 2, 4]);
+        assert_eq!(tl.list(2), &[2, 4]);
+        assert_eq!(tl.list(8), &[2, 4]);
+        assert_eq!(tl.list(6), &[2]);
+        let per_tile: Vec<Vec<[f32; 1]>> = (0..9)
+            .map(|t| tl.list(t).iter().map(|_| [t as f32 + 1.0]).collect())
+            .collect();
+        let sums = tl.gather(&per_tile);
+        assert_eq!(sums[2][0], 45.0, "item 2 touches all 9 tiles");
+        assert_eq!(sums[0][0], 1.0 + 2.0);
+        assert_eq!(sums[3][0], 0.0);
+        assert_eq!(sums[4][0], 2.0 + 3.0 + 5.0 + 6.0 + 8.0 + 9.0);
     }
 }

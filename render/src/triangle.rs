@@ -311,7 +311,6 @@ pub fn rasterize(
         return (out, TriangleState::default());
     }
     let tiles = TileLists::build(&proj, |p| Some(p.bbox), |p| p.depth, w, h);
-    let lists = &tiles.lists;
     // tiles in parallel, landed in tile order: independent of the thread count
     let rendered: Vec<Vec<Shaded>> = (0..tw * th)
         .into_par_iter()
@@ -320,7 +319,7 @@ pub fn rasterize(
             let mut res = Vec::with_capacity(TILE * TILE);
             for y in ty * TILE..((ty + 1) * TILE).min(h) {
                 for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                    res.push(shade(&proj, &lists[ti], x, y, s));
+                    res.push(shade(&proj, tiles.list(ti), x, y, s));
                 }
             }
             res

@@ -49,10 +49,10 @@ pub fn backward(
     assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
     let tw = state.tiles.tiles_x;
     let proj = &state.proj;
-    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.lists.len())
+    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.len())
         .into_par_iter()
         .map(|ti| {
-            let list = &state.tiles.lists[ti];
+            let list = state.tiles.list(ti);
             let mut acc = vec![[0.0f32; 15]; list.len()];
             let (tx, ty) = (ti % tw, ti / tw);
             for y in ty * TILE..((ty + 1) * TILE).min(h) {
