@@ -40,7 +40,7 @@ use crate::tiles::{TILE, TileLists};
 pub struct Triangles3 {
     /// Three vertices per triangle, world units.
     pub vertices: Vec<[[f32; 3]; 3]>,
-    /// Window sharpness σ > 0 (Triangle Splatting: 0.01 + exp(raw)).
+    /// Window sharpness σ ≥ 0 (Triangle Splatting: 0.01 + exp(raw); 0 = solid).
     pub sigmas: Vec<f32>,
     /// Opacities in [0, 1].
     pub opacities: Vec<f32>,
@@ -103,7 +103,7 @@ pub(crate) fn project_tri_t<T: Real>(
     rows: &[[f64; 3]; 3],
     s: &RasterSettings,
 ) -> Option<ProjectedTriT<T>> {
-    if opacity.is_nan() || opacity < 0.01 || sigma.is_nan() || sigma <= 0.0 {
+    if opacity.is_nan() || opacity < 0.01 || sigma.is_nan() || sigma < 0.0 {
         return None;
     }
     let tr = cam.translation;

@@ -3,7 +3,9 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::ops::{chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles};
+use crate::ops::{
+    chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles, render,
+};
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
 #[derive(Parser, Debug)]
@@ -38,6 +40,8 @@ pub enum Command {
     Decimate(decimate::DecimateArgs),
     /// Mesh clean-up: duplicates, degenerate faces, non-manifold edges, small components.
     Clean(clean::CleanArgs),
+    /// Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images.
+    Render(render::RenderArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -53,6 +57,7 @@ pub fn splatkit_main() -> ! {
         Command::Poisson(a) => poisson::run(a),
         Command::Decimate(a) => decimate::run(a),
         Command::Clean(a) => clean::run(a),
+        Command::Render(a) => render::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -120,4 +125,11 @@ single_command!(
     clean::CleanArgs,
     clean::run,
     "Mesh clean-up: duplicates, degenerate faces, non-manifold edges, small components."
+);
+single_command!(
+    render_main,
+    "render",
+    render::RenderArgs,
+    render::run,
+    "Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images."
 );

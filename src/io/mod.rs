@@ -6,6 +6,7 @@ pub mod cameras;
 pub mod detect;
 pub mod dtu;
 pub mod gltf;
+pub mod image;
 pub mod mat;
 pub mod obj;
 pub mod off;

@@ -84,6 +84,25 @@ impl Gaussians {
         super::sh_coeffs_of(&self.sh_dc, &self.sh_rest, self.rest_per_channel(), i)
     }
 
+    /// The activated values the rasteriser takes: scales exp(v), opacities
+    /// sigmoid(v), quaternions as stored (normalised by the rasteriser), SH
+    /// coefficient-major with the DC term first.
+    pub fn to_raster(&self) -> splatkit_render::gaussian::Gaussians3 {
+        let n = self.len();
+        let mut sh = Vec::with_capacity(n * (self.sh_degree + 1).pow(2));
+        for i in 0..n {
+            sh.extend(self.sh_coeffs(i));
+        }
+        splatkit_render::gaussian::Gaussians3 {
+            means: self.means.clone(),
+            scales: (0..n).map(|i| self.scales(i)).collect(),
+            rotations: self.rotations.clone(),
+            opacities: (0..n).map(|i| self.opacity(i)).collect(),
+            sh,
+            sh_degree: self.sh_degree,
+        }
+    }
+
     /// Checks that every array has one entry per Gaussian.
     pub fn validate(&self) -> Result<(), String> {
         let n = self.means.len();

@@ -81,6 +81,25 @@ impl TriangleSoup {
         super::sh_coeffs_of(&self.sh_dc, &self.sh_rest, self.rest_per_channel(), i)
     }
 
+    /// The activated values the rasteriser takes, with the SH truncated to
+    /// the active degree (what the reference renders with).
+    pub fn to_raster(&self) -> splatkit_render::triangle::Triangles3 {
+        let n = self.len();
+        let deg = self.active_sh_degree.min(self.sh_degree);
+        let keep = (deg + 1) * (deg + 1);
+        let mut sh = Vec::with_capacity(n * keep);
+        for i in 0..n {
+            sh.extend(self.sh_coeffs(i).into_iter().take(keep));
+        }
+        splatkit_render::triangle::Triangles3 {
+            vertices: self.triangles.clone(),
+            sigmas: (0..n).map(|i| self.sigma(i)).collect(),
+            opacities: (0..n).map(|i| self.opacity(i)).collect(),
+            sh,
+            sh_degree: deg,
+        }
+    }
+
     /// Keeps the triangles whose `keep` flag is set, in order.
     pub fn filter(&self, keep: &[bool]) -> TriangleSoup {
         let idx: Vec<usize> = (0..self.len()).filter(|&i| keep[i]).collect();

@@ -10,3 +10,4 @@ pub mod export_off;
 pub mod info;
 pub mod poisson;
 pub mod prune_triangles;
+pub mod render;

@@ -273,9 +273,28 @@ fn quoted(p: &mut std::iter::Peekable<std::str::Chars>) -> std::result::Result<S
 /// # Panics
 /// When `data.len()` is not the product of `shape`.
 pub fn encode_npy_f64(shape: &[usize], data: &[f64]) -> Vec<u8> {
+    let mut b = npy_header("<f8", shape, data.len());
+    for v in data {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b
+}
+
+/// As [`encode_npy_f64`], for `<f4` data.
+pub fn encode_npy_f32(shape: &[usize], data: &[f32]) -> Vec<u8> {
+    let mut b = npy_header("<f4", shape, data.len());
+    for v in data {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b
+}
+
+/// Magic, version, header length and the padded header dict of a
+/// version-1 `.npy` file.
+fn npy_header(descr: &str, shape: &[usize], len: usize) -> Vec<u8> {
     assert_eq!(
         shape.iter().product::<usize>(),
-        data.len(),
+        len,
         "shape and data disagree"
     );
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
@@ -283,16 +302,14 @@ pub fn encode_npy_f64(shape: &[usize], data: &[f64]) -> Vec<u8> {
         1 => format!("({},)", dims[0]),
         _ => format!("({})", dims.join(", ")),
     };
-    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape_s}, }}");
+    let mut header =
+        format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape_s}, }}");
     let total = 10 + header.len() + 1;
     header.push_str(&" ".repeat(total.next_multiple_of(64) - total));
     header.push('\n');
     let mut b = b"\x93NUMPY\x01\x00".to_vec();
     b.extend_from_slice(&(header.len() as u16).to_le_bytes());
     b.extend_from_slice(header.as_bytes());
-    for v in data {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
     b
 }
 

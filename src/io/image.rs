@@ -1,0 +1,143 @@
+//! PNG images for the renderer: 8-bit RGB and grey, 16-bit grey (depth),
+//! and reading RGB(A)/grey PNGs of any bit depth as floats in [0, 1].
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::{Error, Result};
+
+fn encode_err(name: &str, e: png::EncodingError) -> Error {
+    match e {
+        png::EncodingError::IoError(e) => Error::io(name, e),
+        other => Error::format(name, format!("PNG encoding: {other}")),
+    }
+}
+
+/// Writes an 8-bit PNG; `channels` 1 (grey), 3 (RGB) or 4 (RGBA).
+pub fn write_png8(
+    w: &mut dyn Write,
+    name: &str,
+    width: usize,
+    height: usize,
+    channels: usize,
+    data: &[u8],
+) -> Result<()> {
+    let color = match channels {
+        1 => png::ColorType::Grayscale,
+        3 => png::ColorType::Rgb,
+        4 => png::ColorType::Rgba,
+        _ => return Err(Error::format(name, format!("{channels} channels"))),
+    };
+    let mut enc = png::Encoder::new(w, width as u32, height as u32);
+    enc.set_color(color);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut wr = enc.write_header().map_err(|e| encode_err(name, e))?;
+    wr.write_image_data(data).map_err(|e| encode_err(name, e))?;
+    wr.finish().map_err(|e| encode_err(name, e))
+}
+
+/// Writes a 16-bit grey PNG (big-endian samples, as PNG stores them).
+pub fn write_png16(
+    w: &mut dyn Write,
+    name: &str,
+    width: usize,
+    height: usize,
+    data: &[u16],
+) -> Result<()> {
+    let mut enc = png::Encoder::new(w, width as u32, height as u32);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Sixteen);
+    let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_be_bytes()).collect();
+    let mut wr = enc.write_header().map_err(|e| encode_err(name, e))?;
+    wr.write_image_data(&bytes)
+        .map_err(|e| encode_err(name, e))?;
+    wr.finish().map_err(|e| encode_err(name, e))
+}
+
+/// An RGB image as floats in [0, 1], row-major.
+#[derive(Clone, Debug)]
+pub struct RgbImage {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+/// Reads a PNG (grey, grey+alpha, RGB or RGBA; 8 or 16 bits) as RGB floats;
+/// alpha is dropped, grey is replicated.
+pub fn read_png_rgb(path: &Path) -> Result<RgbImage> {
+    let name = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|e| Error::io(&name, e))?;
+    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
+    dec.set_transformations(png::Transformations::EXPAND);
+    let mut reader = dec
+        .read_info()
+        .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| Error::format(&name, "PNG too large"))?;
+    let mut buf = vec![0u8; size];
+    let info = reader
+        .next_frame(&mut buf)
+        .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
+    let (w, h) = (info.width as usize, info.height as usize);
+    let ch = info.color_type.samples();
+    let sixteen = info.bit_depth == png::BitDepth::Sixteen;
+    let sample = |i: usize| -> f32 {
+        if sixteen {
+            u16::from_be_bytes([buf[2 * i], buf[2 * i + 1]]) as f32 / 65535.0
+        } else {
+            buf[i] as f32 / 255.0
+        }
+    };
+    let pixels = (0..w * h)
+        .map(|p| {
+            if ch >= 3 {
+                [sample(p * ch), sample(p * ch + 1), sample(p * ch + 2)]
+            } else {
+                [sample(p * ch); 3]
+            }
+        })
+        .collect();
+    Ok(RgbImage {
+        width: w,
+        height: h,
+        pixels,
+    })
+}
+
+/// Linear [0, 1] float to an 8-bit value (clamped, rounded).
+pub fn to_u8(v: f32) -> u8 {
+    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 8-bit RGB and 16-bit grey round-trip through the PNG codec.
+    #[test]
+    fn png_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.png");
+        let data: Vec<u8> = (0..4 * 3 * 3).map(|i| (i * 7) as u8).collect();
+        let mut f = std::fs::File::create(&p).unwrap();
+        write_png8(&mut f, "a", 4, 3, 3, &data).unwrap();
+        drop(f);
+        let img = read_png_rgb(&p).unwrap();
+        assert_eq!((img.width, img.height), (4, 3));
+        for (i, px) in img.pixels.iter().enumerate() {
+            for k in 0..3 {
+                assert_eq!(to_u8(px[k]), data[3 * i + k]);
+            }
+        }
+        let p16 = dir.path().join("d.png");
+        let d16: Vec<u16> = vec![0, 1, 65535, 40000, 12345, 7];
+        let mut f = std::fs::File::create(&p16).unwrap();
+        write_png16(&mut f, "d", 3, 2, &d16).unwrap();
+        drop(f);
+        let g = read_png_rgb(&p16).unwrap();
+        for (px, v) in g.pixels.iter().zip(&d16) {
+            assert_eq!((px[0] * 65535.0).round() as u16, *v);
+        }
+    }
+}

@@ -1,0 +1,530 @@
+//! `render`: renders a Gaussian PLY, a triangle-splat soup or a mesh from a
+//! camera file (or an orbit around the scene) to PNG colour, depth (float32
+//! `.npy` and 16-bit PNG), alpha and normal images, and optionally compares
+//! the colour renders with ground-truth images (PSNR, SSIM).
+//!
+//! Conventions: cameras in OpenCV axes (DESIGN.md); depth is camera z in
+//! scene units (median depth for splats by default, as 2DGS and Triangle
+//! Splatting use; `--depth expected` for Σwz/Σw); the 16-bit PNG stores
+//! round(depth × `--depth-scale`) clamped to 65535, 0 = no depth; normals are
+//! camera-space unit vectors mapped to 8 bits as (n + 1)/2; alpha is the
+//! accumulated opacity (coverage for meshes).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, ValueEnum};
+use glam::{DMat3, DVec3};
+use serde_json::json;
+use splatkit_render::gaussian::{self, RasterSettings, RenderOutput};
+use splatkit_render::loss::{psnr, ssim};
+use splatkit_render::{mesh as zbuffer, triangle};
+
+use crate::cli::{Common, shown};
+use crate::io::cameras::npz::encode_npy_f32;
+use crate::io::cameras::read_cameras;
+use crate::io::detect::{FileFormat, PlyKind};
+use crate::io::image::{read_png_rgb, to_u8, write_png8, write_png16};
+use crate::io::ply::Header;
+use crate::io::{any, ply, read_input, torch_pt, write_output};
+use crate::model::{Camera, Mesh};
+
+/// Which depth the splat renderers write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DepthKind {
+    /// Depth where transmittance crosses 0.5 (2DGS, Triangle Splatting).
+    Median,
+    /// Σ w·z / Σ w.
+    Expected,
+}
+
+/// Arguments of `render`.
+#[derive(Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  render point_cloud.ply --cameras cameras.json -o renders/
+  render scene.pt --cameras sparse/0 -o renders/ --compare images/ --json
+  render mesh.ply --cameras cameras.npz -o depth/ --outputs depth --depth-scale 1000
+  render biker.ply --orbit 8 --up 0,-1,0 -o orbit/     # no camera file: orbit the scene")]
+pub struct RenderArgs {
+    /// Scene: 3DGS Gaussian PLY, Triangle Splatting `.pt` or soup PLY, or a
+    /// mesh (PLY, OBJ, OFF, glTF/GLB).
+    pub scene: PathBuf,
+    /// Camera file or folder (COLMAP, cameras.json, transforms.json,
+    /// cameras.npz). Without it, `--orbit` cameras are used.
+    #[arg(long)]
+    pub cameras: Option<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// What to write, comma-separated: rgb, depth, alpha, normal.
+    #[arg(long, value_delimiter = ',', default_value = "rgb,depth,alpha,normal")]
+    pub outputs: Vec<String>,
+    /// Depth written for splats.
+    #[arg(long, value_enum, default_value = "median")]
+    pub depth: DepthKind,
+    /// Scale of the 16-bit depth PNG: stored value = round(depth × scale).
+    #[arg(long, default_value_t = 1000.0)]
+    pub depth_scale: f64,
+    /// Background colour r,g,b in [0, 1].
+    #[arg(long, value_delimiter = ',', default_value = "0,0,0")]
+    pub background: Vec<f32>,
+    /// Near plane (camera z) for splats and meshes.
+    #[arg(long, default_value_t = 0.2)]
+    pub near: f64,
+    /// Number of orbit cameras when no camera file is given.
+    #[arg(long, default_value_t = 8)]
+    pub orbit: usize,
+    /// Orbit image size WIDTHxHEIGHT.
+    #[arg(long, default_value = "800x600")]
+    pub size: String,
+    /// Orbit horizontal field of view, degrees.
+    #[arg(long, default_value_t = 50.0)]
+    pub fov: f64,
+    /// Orbit elevation above the horizon, degrees.
+    #[arg(long, default_value_t = 15.0)]
+    pub elevation: f64,
+    /// Orbit distance from the scene centre (default: the scene's central
+    /// 96% box fills the view).
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// World up direction for the orbit (COLMAP-trained scenes: 0,-1,0).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0,-1,0",
+        allow_hyphen_values = true
+    )]
+    pub up: Vec<f64>,
+    /// Folder of ground-truth PNGs named after the cameras: report PSNR and
+    /// SSIM of each colour render against them.
+    #[arg(long)]
+    pub compare: Option<PathBuf>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// A scene ready to rasterise.
+enum Scene {
+    Gaussians(gaussian::Gaussians3),
+    Triangles(triangle::Triangles3),
+    Mesh(Mesh),
+}
+
+impl Scene {
+    fn kind(&self) -> &'static str {
+        match self {
+            Scene::Gaussians(_) => "gaussians",
+            Scene::Triangles(_) => "triangles",
+            Scene::Mesh(_) => "mesh",
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Scene::Gaussians(g) => g.len(),
+            Scene::Triangles(t) => t.len(),
+            Scene::Mesh(m) => m.faces.len(),
+        }
+    }
+
+    /// Points that stand for the scene's extent.
+    fn points(&self) -> Vec<[f32; 3]> {
+        match self {
+            Scene::Gaussians(g) => g.means.clone(),
+            Scene::Triangles(t) => t.vertices.iter().flatten().copied().collect(),
+            Scene::Mesh(m) => m.vertices.clone(),
+        }
+    }
+}
+
+fn load_scene(path: &Path) -> anyhow::Result<Scene> {
+    let input = read_input(path)?;
+    let name = input.name.clone();
+    let bytes: &[u8] = &input;
+    let fmt =
+        FileFormat::detect(path, bytes).with_context(|| format!("{name}: unknown file format"))?;
+    Ok(match fmt {
+        FileFormat::TorchPt => {
+            Scene::Triangles(torch_pt::parse_triangle_checkpoint(&name, bytes)?.to_raster())
+        }
+        FileFormat::Ply => match PlyKind::of(&Header::parse(&name, bytes)?) {
+            PlyKind::Gaussians | PlyKind::CompressedGaussians => {
+                Scene::Gaussians(ply::gaussians::parse_gaussians(&name, bytes)?.to_raster())
+            }
+            PlyKind::TriangleSoup => {
+                Scene::Triangles(ply::soup::parse_soup(&name, bytes)?.to_raster())
+            }
+            _ => Scene::Mesh(ply::mesh::parse_mesh(&name, bytes)?),
+        },
+        _ => Scene::Mesh(any::load_mesh(path)?),
+    })
+}
+
+/// Orbit cameras around the central 96% box of `points`.
+#[allow(clippy::too_many_arguments)]
+pub fn orbit_cameras(
+    points: &[[f32; 3]],
+    n: usize,
+    width: u32,
+    height: u32,
+    fov_deg: f64,
+    elevation_deg: f64,
+    radius: Option<f64>,
+    up: DVec3,
+) -> anyhow::Result<Vec<Camera>> {
+    let finite: Vec<&[f32; 3]> = points
+        .iter()
+        .filter(|p| p.iter().all(|v| v.is_finite()))
+        .collect();
+    if finite.is_empty() {
+        bail!("the scene has no finite points to orbit");
+    }
+    let mut lo = [0.0f64; 3];
+    let mut hi = [0.0f64; 3];
+    for k in 0..3 {
+        let mut v: Vec<f64> = finite.iter().map(|p| p[k] as f64).collect();
+        v.sort_by(f64::total_cmp);
+        lo[k] = v[(v.len() as f64 * 0.02) as usize];
+        hi[k] = v[((v.len() as f64 * 0.98) as usize).min(v.len() - 1)];
+    }
+    let centre = DVec3::new(lo[0] + hi[0], lo[1] + hi[1], lo[2] + hi[2]) * 0.5;
+    let half = (DVec3::from(hi) - DVec3::from(lo)).length() * 0.5;
+    let up = up
+        .try_normalize()
+        .context("--up must be a non-zero vector")?;
+    let fov = fov_deg.to_radians();
+    if !(fov > 0.0 && fov < std::f64::consts::PI) {
+        bail!("--fov must lie in (0, 180) degrees");
+    }
+    let dist = radius.unwrap_or(1.3 * half.max(1e-6) / (0.5 * fov).tan());
+    // two directions spanning the horizon plane
+    let any = if up.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    let h0 = (any - up * any.dot(up)).normalize();
+    let h1 = up.cross(h0);
+    let el = elevation_deg.to_radians();
+    let f = 0.5 * width as f64 / (0.5 * fov).tan();
+    Ok((0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            let dir = (h0 * a.cos() + h1 * a.sin()) * el.cos() + up * el.sin();
+            let eye = centre + dir * dist;
+            let fwd = (centre - eye).normalize();
+            let right = (-up).cross(fwd).normalize();
+            let down = fwd.cross(right);
+            let (r, t) = Camera::pose_from_c2w(DMat3::from_cols(right, down, fwd), eye);
+            Camera::pinhole(
+                format!("orbit_{i:03}"),
+                width,
+                height,
+                f,
+                f,
+                width as f64 / 2.0,
+                height as f64 / 2.0,
+                r,
+                t,
+            )
+        })
+        .collect())
+}
+
+/// A file-name stem for a camera: its name without folders or extension.
+fn stem(cam: &Camera, i: usize) -> String {
+    let base = Path::new(&cam.name)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let clean: String = base
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if clean.is_empty() {
+        format!("view_{i:03}")
+    } else {
+        clean
+    }
+}
+
+/// Shades a mesh z-buffer: vertex colours when present, else grey with a
+/// head light (|n·view|); alpha = coverage.
+fn shade_mesh(m: &Mesh, z: &zbuffer::MeshRender, bg: [f32; 3]) -> RenderOutput {
+    let n = z.width * z.height;
+    let mut out = RenderOutput {
+        width: z.width,
+        height: z.height,
+        rgb: vec![bg; n],
+        alpha: vec![0.0; n],
+        expected_depth: z.depth.clone(),
+        median_depth: z.depth.clone(),
+        normal: z.normal.clone(),
+        count: vec![0; n],
+    };
+    for i in 0..n {
+        let f = z.face[i];
+        if f == zbuffer::NO_FACE {
+            continue;
+        }
+        out.alpha[i] = 1.0;
+        out.count[i] = 1;
+        let light = 0.2 + 0.8 * (-z.normal[i][2]).max(0.0);
+        out.rgb[i] = match &m.vertex_colors {
+            Some(c) => {
+                let face = m.faces[f as usize];
+                let [u, v] = z.bary[i];
+                let w = [1.0 - u - v, u, v];
+                std::array::from_fn(|k| {
+                    (0..3)
+                        .map(|j| w[j] * c[face[j] as usize][k] as f32 / 255.0)
+                        .sum::<f32>()
+                        * light
+                })
+            }
+            None => [0.8 * light; 3],
+        };
+    }
+    out
+}
+
+fn render_view(scene: &Scene, cam: &Camera, s: &RasterSettings) -> RenderOutput {
+    match scene {
+        Scene::Gaussians(g) => gaussian::render(g, cam, s),
+        Scene::Triangles(t) => triangle::render(t, cam, s),
+        Scene::Mesh(m) => shade_mesh(
+            m,
+            &zbuffer::render(&m.vertices, &m.faces, cam, s.near),
+            s.background,
+        ),
+    }
+}
+
+fn write_file(
+    path: &Path,
+    bytes_of: impl FnOnce(&mut dyn std::io::Write) -> crate::Result<()>,
+) -> anyhow::Result<()> {
+    write_output(path, bytes_of).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Writes the requested images of one view; returns the file names.
+fn write_view(
+    out: &RenderOutput,
+    dir: &Path,
+    stem: &str,
+    what: &[String],
+    kind: DepthKind,
+    depth_scale: f64,
+) -> anyhow::Result<Vec<String>> {
+    let (w, h) = (out.width, out.height);
+    let mut files = Vec::new();
+    let depth = match kind {
+        DepthKind::Median => &out.median_depth,
+        DepthKind::Expected => &out.expected_depth,
+    };
+    for item in what {
+        match item.as_str() {
+            "rgb" => {
+                let name = format!("{stem}.png");
+                let data: Vec<u8> = out.rgb.iter().flat_map(|p| p.map(to_u8)).collect();
+                write_file(&dir.join(&name), |wr| write_png8(wr, &name, w, h, 3, &data))?;
+                files.push(name);
+            }
+            "depth" => {
+                let name = format!("{stem}_depth.npy");
+                let bytes = encode_npy_f32(&[h, w], depth);
+                write_file(&dir.join(&name), |wr| {
+                    wr.write_all(&bytes).map_err(crate::io::source::werr)
+                })?;
+                files.push(name);
+                let name = format!("{stem}_depth.png");
+                let d16: Vec<u16> = depth
+                    .iter()
+                    .map(|&d| (d as f64 * depth_scale).round().clamp(0.0, 65535.0) as u16)
+                    .collect();
+                write_file(&dir.join(&name), |wr| write_png16(wr, &name, w, h, &d16))?;
+                files.push(name);
+            }
+            "alpha" => {
+                let name = format!("{stem}_alpha.png");
+                let data: Vec<u8> = out.alpha.iter().map(|&a| to_u8(a)).collect();
+                write_file(&dir.join(&name), |wr| write_png8(wr, &name, w, h, 1, &data))?;
+                files.push(name);
+            }
+            "normal" => {
+                let name = format!("{stem}_normal.png");
+                let data: Vec<u8> = out
+                    .normal
+                    .iter()
+                    .flat_map(|n| {
+                        if *n == [0.0; 3] {
+                            [0; 3]
+                        } else {
+                            n.map(|v| to_u8(0.5 * (v + 1.0)))
+                        }
+                    })
+                    .collect();
+                write_file(&dir.join(&name), |wr| write_png8(wr, &name, w, h, 3, &data))?;
+                files.push(name);
+            }
+            other => bail!("unknown --outputs item {other:?} (rgb, depth, alpha, normal)"),
+        }
+    }
+    Ok(files)
+}
+
+/// Finds the ground-truth image of a camera in `dir`.
+fn ground_truth(dir: &Path, cam: &Camera, stem: &str) -> anyhow::Result<PathBuf> {
+    let candidates = [
+        dir.join(&cam.name),
+        dir.join(format!("{stem}.png")),
+        dir.join(format!("{stem}.PNG")),
+    ];
+    candidates
+        .iter()
+        .find(|p| p.is_file() && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .cloned()
+        .with_context(|| {
+            format!(
+                "no ground-truth PNG for camera {:?} in {} (looked for {}.png)",
+                cam.name,
+                dir.display(),
+                stem
+            )
+        })
+}
+
+/// `render` entry point.
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    args.common.init()?;
+    for item in &args.outputs {
+        if !["rgb", "depth", "alpha", "normal"].contains(&item.as_str()) {
+            bail!("unknown --outputs item {item:?} (rgb, depth, alpha, normal)");
+        }
+    }
+    if args.background.len() != 3 || args.background.iter().any(|v| !v.is_finite()) {
+        bail!("--background takes three numbers r,g,b");
+    }
+    if args.up.len() != 3 {
+        bail!("--up takes three numbers x,y,z");
+    }
+    if !(args.depth_scale > 0.0 && args.depth_scale.is_finite()) {
+        bail!("--depth-scale must be positive");
+    }
+    let t0 = std::time::Instant::now();
+    let scene = load_scene(&args.scene)
+        .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
+    let cams = match &args.cameras {
+        Some(p) => read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?,
+        None => {
+            let (w, h) = args
+                .size
+                .split_once('x')
+                .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
+                .filter(|&(w, h)| w > 0 && h > 0 && (w as u64) * (h as u64) <= 1 << 28)
+                .with_context(|| format!("--size {:?}: expected WIDTHxHEIGHT", args.size))?;
+            if args.orbit == 0 {
+                bail!("--orbit must be at least 1 (or give --cameras)");
+            }
+            let up = DVec3::new(args.up[0], args.up[1], args.up[2]);
+            orbit_cameras(
+                &scene.points(),
+                args.orbit,
+                w,
+                h,
+                args.fov,
+                args.elevation,
+                args.radius,
+                up,
+            )?
+        }
+    };
+    for c in &cams {
+        c.require_pinhole()
+            .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
+    }
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("creating {}", args.output.display()))?;
+    let s = RasterSettings {
+        background: [args.background[0], args.background[1], args.background[2]],
+        near: args.near,
+    };
+    let pb = args.common.progress(cams.len() as u64, "render");
+    let mut views = Vec::new();
+    let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
+    for (i, cam) in cams.iter().enumerate() {
+        let out = render_view(&scene, cam, &s);
+        let st = stem(cam, i);
+        let files = write_view(
+            &out,
+            &args.output,
+            &st,
+            &args.outputs,
+            args.depth,
+            args.depth_scale,
+        )?;
+        let mut v = json!({ "camera": cam.name, "files": files });
+        if let Some(dir) = &args.compare {
+            let gt_path = ground_truth(dir, cam, &st)?;
+            let gt = read_png_rgb(&gt_path)?;
+            if (gt.width, gt.height) != (out.width, out.height) {
+                bail!(
+                    "{}: {}x{} pixels, but camera {:?} renders {}x{}",
+                    gt_path.display(),
+                    gt.width,
+                    gt.height,
+                    cam.name,
+                    out.width,
+                    out.height
+                );
+            }
+            let img: Vec<[f32; 3]> = out
+                .rgb
+                .iter()
+                .map(|p| p.map(|v| v.clamp(0.0, 1.0)))
+                .collect();
+            let p = psnr(&img, &gt.pixels);
+            let q = ssim(&img, &gt.pixels, out.width, out.height);
+            psnr_sum += p;
+            ssim_sum += q;
+            v["psnr"] = json!(p);
+            v["ssim"] = json!(q);
+            args.common
+                .say(format!("{}: PSNR {p:.2} dB, SSIM {q:.4}", cam.name));
+        }
+        views.push(v);
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let n = cams.len().max(1) as f64;
+    let mut report = json!({
+        "scene": shown(&args.scene, false),
+        "kind": scene.kind(),
+        "primitives": scene.len(),
+        "views": views,
+        "output": args.output.display().to_string(),
+        "seconds": t0.elapsed().as_secs_f64(),
+    });
+    if args.compare.is_some() {
+        report["mean_psnr"] = json!(psnr_sum / n);
+        report["mean_ssim"] = json!(ssim_sum / n);
+        args.common.say(format!(
+            "mean over {} views: PSNR {:.2} dB, SSIM {:.4}",
+            cams.len(),
+            psnr_sum / n,
+            ssim_sum / n
+        ));
+    }
+    args.common.say(format!(
+        "render: {} {} from {} cameras into {} ({:.1} s)",
+        scene.len(),
+        scene.kind(),
+        cams.len(),
+        args.output.display(),
+        t0.elapsed().as_secs_f64()
+    ));
+    args.common.emit_json(&report)?;
+    Ok(())
+}
