@@ -1,9 +1,16 @@
 //! `splatkit-render`: the rendering pieces shared by every splatkit stage.
 //!
-//! This crate depends on nothing in the main `splatkit` package. It holds the
-//! pinhole camera model (OpenCV axes) and real spherical-harmonics evaluation
-//! in the 3DGS convention, and the rasterisers: [`gaussian`] (3DGS semantics,
-//! forward).
+//! This crate depends on nothing in the main `splatkit` package. It holds:
+//! - the pinhole camera model (OpenCV axes, [`camera`]) and real spherical
+//!   harmonics in the 3DGS convention ([`sh`]);
+//! - the rasterisers: [`gaussian`] (3DGS semantics) with its backward pass
+//!   [`gaussian_grad`], [`triangle`] (Triangle Splatting semantics) with
+//!   [`triangle_grad`], and the opaque z-buffer [`mesh`]; all share the tile
+//!   binning of [`tiles`] and are deterministic for any thread count;
+//! - [`dual`]: forward-mode dual numbers that give the projections' exact
+//!   Jacobians from the same generic code as the forward pass;
+//! - [`loss`] (L1, SSIM with gradient, PSNR) and [`optim`] (Adam with
+//!   per-group schedules) for photometric training.
 
 pub mod camera;
 pub mod dual;
