@@ -33,7 +33,7 @@ use crate::dual::{Real, dot3, sh_rgb};
 use crate::sh::coeff_count;
 
 pub use crate::tiles::TILE;
-use crate::tiles::TileLists;
+use crate::tiles::{TileLists, render_tiles, tile_pixels};
 
 /// Gaussians as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -448,28 +448,25 @@ fn render_tile(
         }
     }
     let mut res = Vec::with_capacity(pixels);
-    for y in y0..((ty + 1) * TILE).min(h) {
-        for x in x0..((tx + 1) * TILE).min(w) {
-            let a = &acc[(y - y0) * TILE + (x - x0)];
-            let mut o = PixelOut {
-                rgb: std::array::from_fn(|k| a.c[k] + a.t * s.background[k]),
-                alpha: 1.0 - a.t,
-                median_depth: a.median,
-                count: a.n,
-                final_t: a.t,
-                last: a.last,
-                ..Default::default()
-            };
-            if a.wsum > 0.0 {
-                o.expected_depth = a.dsum / a.wsum;
-                let l =
-                    (a.nsum[0] * a.nsum[0] + a.nsum[1] * a.nsum[1] + a.nsum[2] * a.nsum[2]).sqrt();
-                if l > 0.0 {
-                    o.normal = a.nsum.map(|v| v / l);
-                }
+    for (x, y) in tile_pixels(ty * w.div_ceil(TILE) + tx, w.div_ceil(TILE), w, h) {
+        let a = &acc[(y - y0) * TILE + (x - x0)];
+        let mut o = PixelOut {
+            rgb: std::array::from_fn(|k| a.c[k] + a.t * s.background[k]),
+            alpha: 1.0 - a.t,
+            median_depth: a.median,
+            count: a.n,
+            final_t: a.t,
+            last: a.last,
+            ..Default::default()
+        };
+        if a.wsum > 0.0 {
+            o.expected_depth = a.dsum / a.wsum;
+            let l = (a.nsum[0] * a.nsum[0] + a.nsum[1] * a.nsum[1] + a.nsum[2] * a.nsum[2]).sqrt();
+            if l > 0.0 {
+                o.normal = a.nsum.map(|v| v / l);
             }
-            res.push(o);
         }
+        res.push(o);
     }
     res
 }
@@ -521,12 +518,6 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
         w,
         h,
     );
-    // Tiles render independently (in parallel), then land in the image in
-    // tile order: the result does not depend on the thread count.
-    let rendered: Vec<Vec<PixelOut>> = (0..tw * th)
-        .into_par_iter()
-        .map(|ti| render_tile(&proj, tiles.list(ti), ti % tw, ti / tw, w, h, s))
-        .collect();
     let mut out = RenderOutput {
         width: w,
         height: h,
@@ -539,24 +530,23 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
     };
     let mut final_t = vec![1.0f32; w * h];
     let mut last = vec![0u32; w * h];
-    for (ti, tile) in rendered.into_iter().enumerate() {
-        let (tx, ty) = (ti % tw, ti / tw);
-        let mut it = tile.into_iter();
-        for y in ty * TILE..((ty + 1) * TILE).min(h) {
-            for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                let p = it.next().expect("one result per pixel");
-                let o = y * w + x;
-                out.rgb[o] = p.rgb;
-                out.alpha[o] = p.alpha;
-                out.expected_depth[o] = p.expected_depth;
-                out.median_depth[o] = p.median_depth;
-                out.normal[o] = p.normal;
-                out.count[o] = p.count;
-                final_t[o] = p.final_t;
-                last[o] = p.last;
-            }
-        }
-    }
+    render_tiles(
+        tw,
+        th,
+        w,
+        h,
+        |ti| render_tile(&proj, tiles.list(ti), ti % tw, ti / tw, w, h, s),
+        |o, p| {
+            out.rgb[o] = p.rgb;
+            out.alpha[o] = p.alpha;
+            out.expected_depth[o] = p.expected_depth;
+            out.median_depth[o] = p.median_depth;
+            out.normal[o] = p.normal;
+            out.count[o] = p.count;
+            final_t[o] = p.final_t;
+            last[o] = p.last;
+        },
+    );
     let state = RasterState {
         proj,
         tiles,
@@ -570,21 +560,7 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
 mod tests {
     use super::*;
     use crate::sh::rgb_to_sh;
-    use glam::{DMat3, DVec3};
-
-    fn camera(w: u32, h: u32, f: f64) -> Camera {
-        Camera::pinhole(
-            "c",
-            w,
-            h,
-            f,
-            f,
-            w as f64 / 2.0,
-            h as f64 / 2.0,
-            DMat3::IDENTITY,
-            DVec3::ZERO,
-        )
-    }
+    use crate::testutil::test_camera as camera;
 
     fn one(mean: [f32; 3], scale: [f32; 3], opacity: f32, rgb: [f32; 3]) -> Gaussians3 {
         Gaussians3 {

@@ -30,6 +30,7 @@ use crate::gaussian::{
     Gaussians3, RasterSettings, RasterState, TILE, pixel_span, project_t, rotation_rows,
 };
 use crate::sh::{basis, coeff_count};
+use crate::tiles::tile_pixels;
 
 /// Gradients, shaped like [`Gaussians3`]'s fields.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -85,19 +86,17 @@ pub fn backward(
             // per-pixel state of the backward walk
             let mut px_state = [PixelBack::default(); TILE * TILE];
             let mut max_last = 0;
-            for y in y0..((ty + 1) * TILE).min(h) {
-                for x in x0..((tx + 1) * TILE).min(w) {
-                    let o = y * w + x;
-                    max_last = max_last.max(state.last[o]);
-                    px_state[(y - y0) * TILE + (x - x0)] = PixelBack {
-                        t: state.final_t[o],
-                        t_final: state.final_t[o],
-                        behind: s.background,
-                        gc: d_rgb[o],
-                        ga: d_alpha.map_or(0.0, |a| a[o]),
-                        last: state.last[o],
-                    };
-                }
+            for (x, y) in tile_pixels(ti, tw, w, h) {
+                let o = y * w + x;
+                max_last = max_last.max(state.last[o]);
+                px_state[(y - y0) * TILE + (x - x0)] = PixelBack {
+                    t: state.final_t[o],
+                    t_final: state.final_t[o],
+                    behind: s.background,
+                    gc: d_rgb[o],
+                    ga: d_alpha.map_or(0.0, |a| a[o]),
+                    last: state.last[o],
+                };
             }
             // Gaussian-major, back to front: each pixel still walks its own
             // contributions in reverse list order
@@ -235,7 +234,7 @@ pub fn backward(
 mod tests {
     use super::*;
     use crate::gaussian::rasterize;
-    use crate::testutil::{Lcg, check_gradient, linear_loss, test_camera};
+    use crate::testutil::{Lcg, check_gradient, linear_loss, random_sh, test_camera};
 
     /// A scene whose image is smooth in every parameter: a few large
     /// Gaussians (σ ≥ 40 px on a 48×40 image) that cover every pixel with
@@ -265,10 +264,7 @@ mod tests {
                 r.range(-0.5, 0.5),
             ]);
             g.opacities.push(r.range(0.3, 0.85));
-            for k in 0..16 {
-                let a = if k == 0 { 0.8 } else { 0.15 };
-                g.sh.push([r.range(-a, a), r.range(-a, a), r.range(-a, a)]);
-            }
+            g.sh.extend(random_sh(&mut r, 16));
         }
         g
     }

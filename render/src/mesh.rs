@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::tiles::{TILE, TileLists};
+use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels};
 
 /// The z-buffer outputs, row-major `width × height`.
 #[derive(Clone, Debug, Default)]
@@ -109,58 +109,51 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
         w,
         h,
     );
-    let hits: Vec<Vec<Hit>> = (0..tw * th)
-        .into_par_iter()
-        .map(|ti| {
-            let (tx, ty) = (ti % tw, ti / tw);
-            let mut res = Vec::with_capacity(TILE * TILE);
-            for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                    // ray direction in camera space (z = 1)
-                    let d = [
-                        (x as f64 + 0.5 - cam.cx) / cam.fx,
-                        (y as f64 + 0.5 - cam.cy) / cam.fy,
-                        1.0,
-                    ];
-                    let mut best: (f64, u32, [f64; 2], [f64; 3]) =
-                        (f64::INFINITY, NO_FACE, [0.0; 2], [0.0; 3]);
-                    for &fi in tiles.list(ti) {
-                        let f = prepared[fi as usize].as_ref().expect("listed faces exist");
-                        if f.depth as f64 > best.0 {
-                            break; // sorted by nearest vertex depth
-                        }
-                        if let Some((z, u, v, n)) = intersect(&f.v, d)
-                            && z > near
-                            && (z < best.0 || (z == best.0 && fi < best.1))
-                        {
-                            best = (z, fi, [u, v], n);
-                        }
-                    }
-                    let (z, fi, b, n) = best;
-                    if fi == NO_FACE {
-                        res.push((NO_FACE, [0.0; 2], 0.0, [0.0; 3]));
-                    } else {
-                        res.push((fi, b.map(|v| v as f32), z as f32, n.map(|v| v as f32)));
-                    }
-                }
+    // nearest hit of the ray through pixel (x, y) among the faces of tile ti
+    let hit = |ti: usize, x: usize, y: usize| -> Hit {
+        // ray direction in camera space (z = 1)
+        let d = [
+            (x as f64 + 0.5 - cam.cx) / cam.fx,
+            (y as f64 + 0.5 - cam.cy) / cam.fy,
+            1.0,
+        ];
+        let mut best: (f64, u32, [f64; 2], [f64; 3]) = (f64::INFINITY, NO_FACE, [0.0; 2], [0.0; 3]);
+        for &fi in tiles.list(ti) {
+            let f = prepared[fi as usize].as_ref().expect("listed faces exist");
+            if f.depth as f64 > best.0 {
+                break; // sorted by nearest vertex depth
             }
-            res
-        })
-        .collect();
-    for (ti, tile) in hits.into_iter().enumerate() {
-        let (tx, ty) = (ti % tw, ti / tw);
-        let mut it = tile.into_iter();
-        for y in ty * TILE..((ty + 1) * TILE).min(h) {
-            for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                let (fi, b, z, n) = it.next().expect("one result per pixel");
-                let o = y * w + x;
-                out.face[o] = fi;
-                out.bary[o] = b;
-                out.depth[o] = z;
-                out.normal[o] = n;
+            if let Some((z, u, v, n)) = intersect(&f.v, d)
+                && z > near
+                && (z < best.0 || (z == best.0 && fi < best.1))
+            {
+                best = (z, fi, [u, v], n);
             }
         }
-    }
+        let (z, fi, b, n) = best;
+        if fi == NO_FACE {
+            (NO_FACE, [0.0; 2], 0.0, [0.0; 3])
+        } else {
+            (fi, b.map(|v| v as f32), z as f32, n.map(|v| v as f32))
+        }
+    };
+    render_tiles(
+        tw,
+        th,
+        w,
+        h,
+        |ti| {
+            tile_pixels(ti, tw, w, h)
+                .map(|(x, y)| hit(ti, x, y))
+                .collect()
+        },
+        |o, (fi, b, z, n)| {
+            out.face[o] = fi;
+            out.bary[o] = b;
+            out.depth[o] = z;
+            out.normal[o] = n;
+        },
+    );
     out
 }
 

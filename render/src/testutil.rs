@@ -24,6 +24,16 @@ impl Lcg {
     }
 }
 
+/// `count` random SH coefficient triples: DC in ±0.8, higher bands in ±0.15.
+pub fn random_sh(r: &mut Lcg, count: usize) -> Vec<[f32; 3]> {
+    (0..count)
+        .map(|k| {
+            let a = if k == 0 { 0.8 } else { 0.15 };
+            [r.range(-a, a), r.range(-a, a), r.range(-a, a)]
+        })
+        .collect()
+}
+
 /// Camera at the origin looking down +z, principal point at the centre.
 pub fn test_camera(w: u32, h: u32, f: f64) -> Camera {
     Camera::pinhole(

@@ -197,6 +197,41 @@ impl TileLists {
     }
 }
 
+/// The pixels (x, y) of tile `t` of a `w × h` image, row-major.
+pub fn tile_pixels(
+    t: usize,
+    tiles_x: usize,
+    w: usize,
+    h: usize,
+) -> impl Iterator<Item = (usize, usize)> {
+    let (tx, ty) = (t % tiles_x, t / tiles_x);
+    let (x0, x1) = (tx * TILE, ((tx + 1) * TILE).min(w));
+    (ty * TILE..((ty + 1) * TILE).min(h)).flat_map(move |y| (x0..x1).map(move |x| (x, y)))
+}
+
+/// Runs `per_tile(t)` for every tile in parallel (one value per pixel, in
+/// [`tile_pixels`] order) and hands each value to `land(y·w + x, value)` in
+/// tile order, so the result does not depend on the thread count.
+pub fn render_tiles<T: Send>(
+    tiles_x: usize,
+    tiles_y: usize,
+    w: usize,
+    h: usize,
+    per_tile: impl Fn(usize) -> Vec<T> + Sync + Send,
+    mut land: impl FnMut(usize, T),
+) {
+    let done: Vec<Vec<T>> = (0..tiles_x * tiles_y)
+        .into_par_iter()
+        .map(per_tile)
+        .collect();
+    for (t, values) in done.into_iter().enumerate() {
+        let mut it = values.into_iter();
+        for (x, y) in tile_pixels(t, tiles_x, w, h) {
+            land(y * w + x, it.next().expect("one value per pixel"));
+        }
+    }
+}
+
 /// A slice that several threads write at disjoint indices.
 struct SharedSlice<T> {
     ptr: *mut T,

@@ -33,7 +33,7 @@ use crate::Camera;
 use crate::dual::{Real, cross3, dot3, sh_rgb};
 use crate::gaussian::{RasterSettings, RenderOutput, rotation_rows};
 use crate::sh::coeff_count;
-use crate::tiles::{TILE, TileLists};
+use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels};
 
 /// Triangles as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -311,40 +311,29 @@ pub fn rasterize(
         return (out, TriangleState::default());
     }
     let tiles = TileLists::build(&proj, |p| Some(p.bbox), |p| p.depth, w, h);
-    // tiles in parallel, landed in tile order: independent of the thread count
-    let rendered: Vec<Vec<Shaded>> = (0..tw * th)
-        .into_par_iter()
-        .map(|ti| {
-            let (tx, ty) = (ti % tw, ti / tw);
-            let mut res = Vec::with_capacity(TILE * TILE);
-            for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                    res.push(shade(&proj, tiles.list(ti), x, y, s));
-                }
-            }
-            res
-        })
-        .collect();
     let mut final_t = vec![1.0f32; w * h];
     let mut lastv = vec![0u32; w * h];
-    for (ti, tile) in rendered.into_iter().enumerate() {
-        let (tx, ty) = (ti % tw, ti / tw);
-        let mut it = tile.into_iter();
-        for y in ty * TILE..((ty + 1) * TILE).min(h) {
-            for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                let px = it.next().expect("one result per pixel");
-                let o = y * w + x;
-                out.rgb[o] = px.rgb;
-                out.alpha[o] = 1.0 - px.final_t;
-                out.expected_depth[o] = px.expected_depth;
-                out.median_depth[o] = px.median_depth;
-                out.normal[o] = px.normal;
-                out.count[o] = px.count;
-                final_t[o] = px.final_t;
-                lastv[o] = px.last;
-            }
-        }
-    }
+    render_tiles(
+        tw,
+        th,
+        w,
+        h,
+        |ti| {
+            tile_pixels(ti, tw, w, h)
+                .map(|(x, y)| shade(&proj, tiles.list(ti), x, y, s))
+                .collect()
+        },
+        |o, px| {
+            out.rgb[o] = px.rgb;
+            out.alpha[o] = 1.0 - px.final_t;
+            out.expected_depth[o] = px.expected_depth;
+            out.median_depth[o] = px.median_depth;
+            out.normal[o] = px.normal;
+            out.count[o] = px.count;
+            final_t[o] = px.final_t;
+            lastv[o] = px.last;
+        },
+    );
     let state = TriangleState {
         proj,
         tiles,

@@ -16,8 +16,9 @@ use rayon::prelude::*;
 
 use crate::Camera;
 use crate::dual::Dual;
-use crate::gaussian::{RasterSettings, TILE, rotation_rows};
+use crate::gaussian::{RasterSettings, rotation_rows};
 use crate::sh::{basis, coeff_count};
+use crate::tiles::tile_pixels;
 use crate::triangle::{TriangleState, Triangles3, project_tri_t, window};
 
 /// Gradients, shaped like [`Triangles3`]'s fields.
@@ -54,54 +55,51 @@ pub fn backward(
         .map(|ti| {
             let list = state.tiles.list(ti);
             let mut acc = vec![[0.0f32; 15]; list.len()];
-            let (tx, ty) = (ti % tw, ti / tw);
-            for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                    let o = y * w + x;
-                    let last = state.last[o] as usize;
-                    if last == 0 {
+            for (x, y) in tile_pixels(ti, tw, w, h) {
+                let o = y * w + x;
+                let last = state.last[o] as usize;
+                if last == 0 {
+                    continue;
+                }
+                let gc = d_rgb[o];
+                let ga = d_alpha.map_or(0.0, |a| a[o]);
+                let t_final = state.final_t[o];
+                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                let mut tr = t_final;
+                let mut behind = s.background;
+                for li in (0..last).rev() {
+                    let p = &proj[list[li] as usize];
+                    let Some((win, arg, phi)) = window(p, px, py) else {
+                        continue;
+                    };
+                    let raw = p.opacity * win;
+                    let alpha = raw.min(0.99);
+                    if alpha < 1.0 / 255.0 {
                         continue;
                     }
-                    let gc = d_rgb[o];
-                    let ga = d_alpha.map_or(0.0, |a| a[o]);
-                    let t_final = state.final_t[o];
-                    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                    let mut tr = t_final;
-                    let mut behind = s.background;
-                    for li in (0..last).rev() {
-                        let p = &proj[list[li] as usize];
-                        let Some((win, arg, phi)) = window(p, px, py) else {
-                            continue;
-                        };
-                        let raw = p.opacity * win;
-                        let alpha = raw.min(0.99);
-                        if alpha < 1.0 / 255.0 {
-                            continue;
-                        }
-                        tr /= 1.0 - alpha;
-                        let wgt = alpha * tr;
-                        let e = &mut acc[li];
-                        let mut d_a = 0.0f32;
-                        for k in 0..3 {
-                            e[12 + k] += gc[k] * wgt;
-                            d_a += gc[k] * (p.rgb[k] - behind[k]) * tr;
-                            behind[k] = alpha * p.rgb[k] + (1.0 - alpha) * behind[k];
-                        }
-                        d_a += ga * t_final / (1.0 - alpha);
-                        if raw >= 0.99 {
-                            continue;
-                        }
-                        e[11] += win * d_a;
-                        let d_win = p.opacity * d_a;
-                        // win > 0 here (α ≥ 1/255), so φ < 0 and the ratio is > 0
-                        let ratio = phi / p.phi_s;
-                        e[10] += d_win * win * ratio.ln();
-                        let d_phi = d_win * p.sigma * win / phi;
-                        e[9] += -d_win * p.sigma * win / p.phi_s;
-                        e[3 * arg] += d_phi * px;
-                        e[3 * arg + 1] += d_phi * py;
-                        e[3 * arg + 2] += d_phi;
+                    tr /= 1.0 - alpha;
+                    let wgt = alpha * tr;
+                    let e = &mut acc[li];
+                    let mut d_a = 0.0f32;
+                    for k in 0..3 {
+                        e[12 + k] += gc[k] * wgt;
+                        d_a += gc[k] * (p.rgb[k] - behind[k]) * tr;
+                        behind[k] = alpha * p.rgb[k] + (1.0 - alpha) * behind[k];
                     }
+                    d_a += ga * t_final / (1.0 - alpha);
+                    if raw >= 0.99 {
+                        continue;
+                    }
+                    e[11] += win * d_a;
+                    let d_win = p.opacity * d_a;
+                    // win > 0 here (α ≥ 1/255), so φ < 0 and the ratio is > 0
+                    let ratio = phi / p.phi_s;
+                    e[10] += d_win * win * ratio.ln();
+                    let d_phi = d_win * p.sigma * win / phi;
+                    e[9] += -d_win * p.sigma * win / p.phi_s;
+                    e[3 * arg] += d_phi * px;
+                    e[3 * arg + 1] += d_phi * py;
+                    e[3 * arg + 2] += d_phi;
                 }
             }
             acc
@@ -184,7 +182,7 @@ pub fn backward(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{Lcg, check_gradient, eval_linear, linear_loss, test_camera};
+    use crate::testutil::{Lcg, check_gradient, eval_linear, linear_loss, random_sh, test_camera};
     use crate::triangle::{rasterize, render};
 
     /// Large triangles (inradius 210–300 px) placed so that the whole 48×40
@@ -225,10 +223,7 @@ mod tests {
             t.vertices.push(v);
             t.sigmas.push(r.range(0.5, 1.2));
             t.opacities.push(r.range(0.4, 0.8));
-            for k in 0..9 {
-                let a = if k == 0 { 0.8 } else { 0.15 };
-                t.sh.push([r.range(-a, a), r.range(-a, a), r.range(-a, a)]);
-            }
+            t.sh.extend(random_sh(&mut r, 9));
         }
         t
     }
