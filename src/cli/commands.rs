@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 
 use crate::ops::{
     chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles, render,
+    splat2points,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -40,6 +41,8 @@ pub enum Command {
     Decimate(decimate::DecimateArgs),
     /// Mesh clean-up: duplicates, degenerate faces, non-manifold edges, small components.
     Clean(clean::CleanArgs),
+    /// A 3DGS scene to oriented points on its density level set (SuGaR), for `poisson`.
+    Splat2points(splat2points::Splat2PointsArgs),
     /// Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images.
     Render(render::RenderArgs),
     /// Run the triangle tools end to end on a generated scene.
@@ -58,6 +61,7 @@ pub fn splatkit_main() -> ! {
         Command::Decimate(a) => decimate::run(a),
         Command::Clean(a) => clean::run(a),
         Command::Render(a) => render::run(a),
+        Command::Splat2points(a) => splat2points::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -132,4 +136,11 @@ single_command!(
     render::RenderArgs,
     render::run,
     "Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images."
+);
+single_command!(
+    splat2points_main,
+    "splat2points",
+    splat2points::Splat2PointsArgs,
+    splat2points::run,
+    "A 3DGS scene to oriented points on its density level set (SuGaR), for `poisson`."
 );

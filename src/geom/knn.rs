@@ -86,6 +86,23 @@ impl NnIndex {
             .collect()
     }
 
+    /// Indices of the `k` nearest points to `q` (fewer when the index holds
+    /// fewer), nearest first, ties by index.
+    pub fn k_nearest(&self, q: &[f64; 3], k: usize) -> Vec<usize> {
+        let (Some(tree), Some(kk)) = (&self.tree, std::num::NonZero::new(k.min(self.len))) else {
+            return Vec::new();
+        };
+        let mut v: Vec<(f64, usize)> = tree
+            .query(q)
+            .nearest_n::<SquaredEuclidean<f64>>(kk)
+            .execute()
+            .into_iter()
+            .map(|r| (r.distance, r.item as usize))
+            .collect();
+        v.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        v.into_iter().map(|(_, i)| i).collect()
+    }
+
     /// Indices of the points within `radius` of `q` (boundary included),
     /// sorted by index.
     pub fn within(&self, q: &[f64; 3], radius: f64) -> Vec<usize> {

@@ -11,3 +11,4 @@ pub mod info;
 pub mod poisson;
 pub mod prune_triangles;
 pub mod render;
+pub mod splat2points;

@@ -1,0 +1,3 @@
+fn main() {
+    splatkit::cli::commands::splat2points_main()
+}

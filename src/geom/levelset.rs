@@ -1,0 +1,610 @@
+//! SuGaR's level-set sampling of a 3DGS scene (`sugar.md` §3.1–3.2), on the
+//! CPU: oriented, coloured points on {d = λ} of the Gaussian density
+//! d(p) = min(1, Σ_g α_g exp(−½ (p−μ_g)ᵀ Σ_g⁻¹ (p−μ_g))).
+//!
+//! Per camera:
+//! 1. depth and hit-Gaussian buffer: each Gaussian becomes a "diamond" (two
+//!    triangles through μ ± 2·s_k·a_k on its two largest axes) whose vertices
+//!    slide along their camera rays onto the plane through μ orthogonal to
+//!    the view direction (camera-facing, constant depth, same footprint), and
+//!    an opaque z-buffer gives the nearest diamond per pixel
+//!    ([`DepthSource::Diamonds`]); or the alpha-blended median depth with the
+//!    hit Gaussian taken as the centre nearest the back-projected point
+//!    ([`DepthSource::Median`]);
+//! 2. random covered pixels (twice the per-view cap, seeded per camera) are
+//!    back-projected through their pixel centre to p;
+//! 3. along the ray through p, 21 samples over ±3σ, σ = √(vᵀΣv) the hit
+//!    Gaussian's standard deviation along the direction v to the camera;
+//! 4. d at the samples over the 16 nearest centres of the hit Gaussian
+//!    (itself included), clamped at 1; a ray counts when d starts below λ and
+//!    later exceeds it; the first crossing is interpolated linearly;
+//! 5. normal: ∇d at the point (same neighbours), normalised and turned
+//!    toward the camera (SuGaR's own sign points into the surface, which
+//!    turns Poisson meshes inside out, `sugar.md` §7.2);
+//! 6. colour: the pixel of a DC-only render (black background).
+//!
+//! At most ⌊max_points / cameras⌋ + 1 points per view and level are kept (the
+//! first valid rays in sampled order). Output order: camera, then level, then
+//! ray; deterministic for a given seed whatever the thread count.
+
+use rand::{RngExt, SeedableRng};
+use rayon::prelude::*;
+use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
+use splatkit_render::mesh as zbuffer;
+
+use crate::geom::knn::NnIndex;
+use crate::model::Camera;
+use crate::{Error, Result};
+
+/// A point and its unit normal.
+type Oriented = ([f64; 3], [f64; 3]);
+
+/// Where the per-pixel depth and hit Gaussian come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthSource {
+    /// Camera-facing ±2σ diamonds in a z-buffer (SuGaR's default).
+    Diamonds,
+    /// The alpha-blended median depth (SuGaR's `use_gaussian_depth`).
+    Median,
+}
+
+/// Options of [`sample_levelset`] (SuGaR's defaults).
+#[derive(Clone, Debug)]
+pub struct LevelsetOptions {
+    /// Levels λ of the density.
+    pub levels: Vec<f32>,
+    /// Total point cap over all views (per level).
+    pub max_points: usize,
+    /// Gaussians with opacity ≤ this are dropped first.
+    pub min_opacity: f32,
+    /// Samples per ray.
+    pub samples: usize,
+    /// Half-range of the ray samples, in σ along the ray.
+    pub range: f64,
+    /// Neighbours of the hit Gaussian in the density sum.
+    pub knn: usize,
+    pub depth: DepthSource,
+    pub seed: u64,
+    /// Near plane for the depth renders.
+    pub near: f64,
+}
+
+impl Default for LevelsetOptions {
+    fn default() -> Self {
+        LevelsetOptions {
+            levels: vec![0.3],
+            max_points: 10_000_000,
+            min_opacity: 0.5,
+            samples: 21,
+            range: 3.0,
+            knn: 16,
+            depth: DepthSource::Diamonds,
+            seed: 0,
+            near: 0.2,
+        }
+    }
+}
+
+/// Sampled points with their provenance.
+#[derive(Clone, Debug, Default)]
+pub struct LevelPoints {
+    pub positions: Vec<[f32; 3]>,
+    /// Unit normals facing the camera that sampled the point.
+    pub normals: Vec<[f32; 3]>,
+    pub colors: Vec<[u8; 3]>,
+    /// The level λ of each point.
+    pub level: Vec<f32>,
+    /// Index of the camera that sampled each point.
+    pub camera: Vec<u32>,
+}
+
+/// The density field of a set of Gaussians around each Gaussian.
+pub struct Density {
+    means: Vec<[f64; 3]>,
+    /// Σ⁻¹, row-major.
+    inv_cov: Vec<[f64; 9]>,
+    /// Σ, row-major.
+    cov: Vec<[f64; 9]>,
+    opacity: Vec<f64>,
+    /// The k nearest centres of each Gaussian (itself first).
+    neighbours: Vec<Vec<u32>>,
+}
+
+fn quat_rows(q: [f32; 4]) -> [[f64; 3]; 3] {
+    let n = q.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().sqrt();
+    let [w, x, y, z] = if n > 0.0 && n.is_finite() {
+        q.map(|v| v as f64 / n)
+    } else {
+        [1.0, 0.0, 0.0, 0.0]
+    };
+    [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ]
+}
+
+/// The rotation (columns = local axes) and scales of Gaussian `i`, with the
+/// scales floored at 1e-9 so the inverse covariance stays finite.
+fn frame(g: &Gaussians3, i: usize) -> ([[f64; 3]; 3], [f64; 3]) {
+    (
+        quat_rows(g.rotations[i]),
+        g.scales[i].map(|s| (s as f64).abs().max(1e-9)),
+    )
+}
+
+impl Density {
+    /// Builds the field: covariances and the k-nearest-centre table.
+    pub fn new(g: &Gaussians3, k: usize) -> Result<Density> {
+        let means: Vec<[f64; 3]> = g.means.iter().map(|m| m.map(f64::from)).collect();
+        let index = NnIndex::new(&means)?;
+        let neighbours = means
+            .par_iter()
+            .map(|m| {
+                index
+                    .k_nearest(m, k)
+                    .into_iter()
+                    .map(|i| i as u32)
+                    .collect()
+            })
+            .collect();
+        let (cov, inv_cov): (Vec<[f64; 9]>, Vec<[f64; 9]>) = (0..g.len())
+            .into_par_iter()
+            .map(|i| {
+                let (r, s) = frame(g, i);
+                let mut c = [0.0; 9];
+                let mut ci = [0.0; 9];
+                for a in 0..3 {
+                    for b in 0..3 {
+                        for k in 0..3 {
+                            c[3 * a + b] += r[a][k] * r[b][k] * s[k] * s[k];
+                            ci[3 * a + b] += r[a][k] * r[b][k] / (s[k] * s[k]);
+                        }
+                    }
+                }
+                (c, ci)
+            })
+            .unzip();
+        Ok(Density {
+            means,
+            inv_cov,
+            cov,
+            opacity: g.opacities.iter().map(|&o| o as f64).collect(),
+            neighbours,
+        })
+    }
+
+    /// d(p) over the neighbours of Gaussian `hit`, clamped at 1, and the
+    /// unclamped gradient ∇d.
+    pub fn at(&self, hit: usize, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let mut d = 0.0;
+        let mut grad = [0.0; 3];
+        for &j in &self.neighbours[hit] {
+            let j = j as usize;
+            let m = self.means[j];
+            let x = [p[0] - m[0], p[1] - m[1], p[2] - m[2]];
+            let ci = &self.inv_cov[j];
+            let y = [
+                ci[0] * x[0] + ci[1] * x[1] + ci[2] * x[2],
+                ci[3] * x[0] + ci[4] * x[1] + ci[5] * x[2],
+                ci[6] * x[0] + ci[7] * x[1] + ci[8] * x[2],
+            ];
+            let q = x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+            let w = self.opacity[j] * (-0.5 * q).exp();
+            d += w;
+            for k in 0..3 {
+                grad[k] -= w * y[k];
+            }
+        }
+        (d.min(1.0), grad)
+    }
+
+    /// Standard deviation of Gaussian `i` along unit direction `v`: √(vᵀΣv).
+    pub fn sigma_along(&self, i: usize, v: [f64; 3]) -> f64 {
+        let c = &self.cov[i];
+        let cv = [
+            c[0] * v[0] + c[1] * v[1] + c[2] * v[2],
+            c[3] * v[0] + c[4] * v[1] + c[5] * v[2],
+            c[6] * v[0] + c[7] * v[1] + c[8] * v[2],
+        ];
+        (v[0] * cv[0] + v[1] * cv[1] + v[2] * cv[2]).max(0.0).sqrt()
+    }
+}
+
+/// The camera-facing diamonds of `g` seen from `cam`: 4 vertices and 2
+/// faces per Gaussian (faces 2i and 2i+1 belong to Gaussian i); Gaussians
+/// behind the camera get degenerate faces that are never hit.
+fn diamonds(g: &Gaussians3, cam: &Camera) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let c = cam.center();
+    let c = [c.x, c.y, c.z];
+    let quads: Vec<[[f32; 3]; 4]> = (0..g.len())
+        .into_par_iter()
+        .map(|i| {
+            let (r, s) = frame(g, i);
+            let mu = g.means[i].map(f64::from);
+            let mut order = [0usize, 1, 2];
+            order.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
+            let (k1, k2) = (order[0], order[1]);
+            let axis = |k: usize| [r[0][k], r[1][k], r[2][k]];
+            let (a1, a2) = (axis(k1), axis(k2));
+            let to = [mu[0] - c[0], mu[1] - c[1], mu[2] - c[2]];
+            let dist = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            if dist.is_nan() || dist == 0.0 {
+                return [[f32::NAN; 3]; 4];
+            }
+            let dh = to.map(|v| v / dist);
+            let corner = |a: [f64; 3], t: f64| -> [f32; 3] {
+                let v = [mu[0] + t * a[0], mu[1] + t * a[1], mu[2] + t * a[2]];
+                // slide along the camera ray onto the plane through μ ⟂ dh
+                let rel = [v[0] - c[0], v[1] - c[1], v[2] - c[2]];
+                let along = rel[0] * dh[0] + rel[1] * dh[1] + rel[2] * dh[2];
+                if along <= 0.0 {
+                    return [f32::NAN; 3];
+                }
+                let f = dist / along;
+                [0, 1, 2].map(|k| (c[k] + rel[k] * f) as f32)
+            };
+            [
+                corner(a1, 2.0 * s[k1]),
+                corner(a2, 2.0 * s[k2]),
+                corner(a1, -2.0 * s[k1]),
+                corner(a2, -2.0 * s[k2]),
+            ]
+        })
+        .collect();
+    let mut pos = Vec::with_capacity(4 * quads.len());
+    let mut faces = Vec::with_capacity(2 * quads.len());
+    for (i, q) in quads.iter().enumerate() {
+        let b = 4 * i as u32;
+        pos.extend_from_slice(q);
+        faces.push([b, b + 1, b + 2]);
+        faces.push([b, b + 2, b + 3]);
+    }
+    (pos, faces)
+}
+
+/// Per pixel: camera z and hit Gaussian (`None` where nothing is hit).
+fn depth_and_hits(
+    g: &Gaussians3,
+    cam: &Camera,
+    opts: &LevelsetOptions,
+    centres: &NnIndex,
+) -> Vec<Option<(f64, usize)>> {
+    match opts.depth {
+        DepthSource::Diamonds => {
+            let (pos, faces) = diamonds(g, cam);
+            let z = zbuffer::render(&pos, &faces, cam, opts.near);
+            z.face
+                .iter()
+                .zip(&z.depth)
+                .map(|(&f, &d)| (f != zbuffer::NO_FACE).then_some((d as f64, f as usize / 2)))
+                .collect()
+        }
+        DepthSource::Median => {
+            let s = RasterSettings {
+                background: [0.0; 3],
+                near: opts.near,
+            };
+            let img = gaussian::render(g, cam, &s);
+            let w = cam.width as usize;
+            img.median_depth
+                .par_iter()
+                .enumerate()
+                .map(|(o, &d)| {
+                    if d <= 0.0 {
+                        return None;
+                    }
+                    let p = back_project(cam, o % w, o / w, d as f64);
+                    centres.nearest(&p).map(|(i, _)| (d as f64, i))
+                })
+                .collect()
+        }
+    }
+}
+
+/// World point at camera depth `z` on the ray through the centre of pixel (x, y).
+pub fn back_project(cam: &Camera, x: usize, y: usize, z: f64) -> [f64; 3] {
+    let pc = glam::DVec3::new(
+        (x as f64 + 0.5 - cam.cx) / cam.fx * z,
+        (y as f64 + 0.5 - cam.cy) / cam.fy * z,
+        z,
+    );
+    let w = cam.c2w_rotation() * pc + cam.center();
+    [w.x, w.y, w.z]
+}
+
+/// Samples oriented points on the level sets of `g` (activated values) seen
+/// from `cams`.
+pub fn sample_levelset(
+    g: &Gaussians3,
+    cams: &[Camera],
+    opts: &LevelsetOptions,
+    mut progress: impl FnMut(usize),
+) -> Result<LevelPoints> {
+    if cams.is_empty() {
+        return Err(Error::invalid("no cameras to sample from"));
+    }
+    if opts.samples < 2 || opts.knn == 0 || opts.range.is_nan() || opts.range <= 0.0 {
+        return Err(Error::invalid(
+            "need at least 2 samples per ray, 1 neighbour and a positive range",
+        ));
+    }
+    if let Some(l) = opts.levels.iter().find(|l| !(**l > 0.0 && **l < 1.0)) {
+        return Err(Error::invalid(format!("level {l} is not in (0, 1)")));
+    }
+    // 1. opacity filter
+    let keep: Vec<usize> = (0..g.len())
+        .filter(|&i| g.opacities[i] > opts.min_opacity && g.means[i].iter().all(|v| v.is_finite()))
+        .collect();
+    let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
+    let kept = Gaussians3 {
+        means: keep.iter().map(|&i| g.means[i]).collect(),
+        scales: keep.iter().map(|&i| g.scales[i]).collect(),
+        rotations: keep.iter().map(|&i| g.rotations[i]).collect(),
+        opacities: keep.iter().map(|&i| g.opacities[i]).collect(),
+        sh: keep.iter().map(|&i| g.sh[i * nc]).collect(),
+        sh_degree: 0,
+    };
+    let mut out = LevelPoints::default();
+    if kept.is_empty() {
+        return Ok(out);
+    }
+    let field = Density::new(&kept, opts.knn)?;
+    let centres = NnIndex::new(&field.means)?;
+    let per_view = opts.max_points / cams.len() + 1;
+    let colour_settings = RasterSettings {
+        background: [0.0; 3],
+        near: opts.near,
+    };
+    for (ci, cam) in cams.iter().enumerate() {
+        let w = cam.width as usize;
+        let hits = depth_and_hits(&kept, cam, opts, &centres);
+        let covered: Vec<u32> = (0..hits.len())
+            .filter(|&o| hits[o].is_some())
+            .map(|o| o as u32)
+            .collect();
+        if covered.is_empty() {
+            progress(ci);
+            continue;
+        }
+        // 2·cap random covered pixels, without replacement (partial shuffle)
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(
+            opts.seed ^ (ci as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        );
+        let mut pool = covered;
+        let take = (2 * per_view).min(pool.len());
+        for k in 0..take {
+            let j = rng.random_range(k..pool.len());
+            pool.swap(k, j);
+        }
+        pool.truncate(take);
+        let rgb = gaussian::render(&kept, cam, &colour_settings).rgb;
+        let eye = cam.center();
+        let eye = [eye.x, eye.y, eye.z];
+        // per ray: the crossing for each level
+        let rays: Vec<Vec<Option<Oriented>>> = pool
+            .par_iter()
+            .map(|&o| {
+                let o = o as usize;
+                let (z, hit) = hits[o].expect("covered");
+                let p = back_project(cam, o % w, o / w, z);
+                let mu = field.means[hit];
+                let v = unit([eye[0] - mu[0], eye[1] - mu[1], eye[2] - mu[2]]);
+                let dir = unit([p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]]);
+                let sigma = field.sigma_along(hit, v);
+                let n = opts.samples;
+                let ts: Vec<f64> = (0..n)
+                    .map(|i| opts.range * sigma * (2.0 * i as f64 / (n - 1) as f64 - 1.0))
+                    .collect();
+                let at = |t: f64| [p[0] + t * dir[0], p[1] + t * dir[1], p[2] + t * dir[2]];
+                let ds: Vec<f64> = ts.iter().map(|&t| field.at(hit, at(t)).0).collect();
+                opts.levels
+                    .iter()
+                    .map(|&lam| {
+                        let lam = lam as f64;
+                        if ds[0].is_nan() || ds[0] >= lam {
+                            return None;
+                        }
+                        let j = (1..n).find(|&j| ds[j] > lam)?;
+                        let t = ts[j - 1]
+                            + (lam - ds[j - 1]) / (ds[j] - ds[j - 1]) * (ts[j] - ts[j - 1]);
+                        let x = at(t);
+                        let (_, gr) = field.at(hit, x);
+                        let l = (gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]).sqrt();
+                        if !(l > 0.0 && l.is_finite()) {
+                            return None;
+                        }
+                        let mut nrm = gr.map(|c| c / l);
+                        let to_cam = [eye[0] - x[0], eye[1] - x[1], eye[2] - x[2]];
+                        if nrm[0] * to_cam[0] + nrm[1] * to_cam[1] + nrm[2] * to_cam[2] < 0.0 {
+                            nrm = nrm.map(|c| -c);
+                        }
+                        Some((x, nrm))
+                    })
+                    .collect()
+            })
+            .collect();
+        for (li, &lam) in opts.levels.iter().enumerate() {
+            let mut n = 0;
+            for (ri, r) in rays.iter().enumerate() {
+                if n == per_view {
+                    break;
+                }
+                let Some((x, nrm)) = r[li] else {
+                    continue;
+                };
+                let c = rgb[pool[ri] as usize];
+                out.positions.push(x.map(|v| v as f32));
+                out.normals.push(nrm.map(|v| v as f32));
+                out.colors
+                    .push(c.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8));
+                out.level.push(lam);
+                out.camera.push(ci as u32);
+                n += 1;
+            }
+        }
+        progress(ci);
+    }
+    Ok(out)
+}
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if l > 0.0 { v.map(|c| c / l) } else { v }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DMat3, DVec3};
+
+    fn camera_at_origin(w: u32, f: f64) -> Camera {
+        Camera::pinhole(
+            "c",
+            w,
+            w,
+            f,
+            f,
+            w as f64 / 2.0,
+            w as f64 / 2.0,
+            DMat3::IDENTITY,
+            DVec3::ZERO,
+        )
+    }
+
+    /// One flat Gaussian (in-plane σ 0.5, thickness s = 0.02, opacity 0.9)
+    /// at z = 5 facing a camera at the origin. Along a ray through the point
+    /// at in-plane radius r the density is 0.9·e^{−r²/(2·0.25)}·e^{−h²/(2s²)},
+    /// so the first crossing of λ lies at h = s·√(−2 ln(λ / (0.9·e^{−r²/0.5})))
+    /// in front of the plane (≈ s·√(−2 ln λ) near the centre). Linear
+    /// interpolation between samples 0.3 s apart errs by well under 0.05 s.
+    /// Normals are the closed-form ∇d = −d·Σ⁻¹(x − μ), normalised and turned
+    /// to the camera (−z here).
+    #[test]
+    fn one_flat_gaussian_matches_the_closed_form() {
+        let g = Gaussians3 {
+            means: vec![[0.0, 0.0, 5.0]],
+            scales: vec![[0.5, 0.5, 0.02]],
+            rotations: vec![[1.0, 0.0, 0.0, 0.0]],
+            opacities: vec![0.9],
+            sh: vec![[1.0, 0.0, 0.0]],
+            sh_degree: 0,
+        };
+        let cams = [camera_at_origin(64, 64.0)];
+        for depth in [DepthSource::Diamonds, DepthSource::Median] {
+            let opts = LevelsetOptions {
+                levels: vec![0.3, 0.5],
+                max_points: 400,
+                depth,
+                ..Default::default()
+            };
+            let pts = sample_levelset(&g, &cams, &opts, |_| ()).unwrap();
+            assert!(
+                pts.positions.len() > 300,
+                "{depth:?}: {}",
+                pts.positions.len()
+            );
+            for i in 0..pts.positions.len() {
+                let [x, y, z] = pts.positions[i].map(f64::from);
+                let lam = pts.level[i] as f64;
+                let r2 = x * x + y * y;
+                let peak = 0.9 * (-r2 / 0.5).exp();
+                let want = 0.02 * (-2.0 * (lam / peak).ln()).sqrt();
+                let h = 5.0 - z;
+                assert!(
+                    (h - want).abs() < 0.05 * 0.02,
+                    "{depth:?} λ {lam} r² {r2:.3}: h {h} vs {want}"
+                );
+                let n = pts.normals[i].map(f64::from);
+                let gr = [x / 0.25, y / 0.25, (z - 5.0) / 0.0004];
+                let l = (gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]).sqrt();
+                // (z − 5) < 0 on the camera side: +Σ⁻¹(x−μ) already faces −z
+                let want = gr.map(|c| c / l);
+                let dot = n[0] * want[0] + n[1] * want[1] + n[2] * want[2];
+                assert!(dot > 1.0 - 1e-6, "normal {n:?} vs {want:?}");
+                assert!(n[2] < -0.9);
+            }
+        }
+    }
+
+    /// Flat Gaussians tiling the unit sphere (3000, in-plane σ 0.04, thickness
+    /// 0.004, opacity 0.95), seen by 6 orbit cameras. Every point lies within
+    /// 0.02 of the sphere (level offset s·√(−2 ln 0.3) ≈ 0.006 plus the
+    /// sagitta of flat discs, ≤ 0.005 at 2σ), and every normal points outward
+    /// (toward the camera that saw it), 99% within 20° of the radial
+    /// direction.
+    #[test]
+    fn sphere_of_flat_gaussians() {
+        let n = 3000;
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let mut g = Gaussians3 {
+            sh_degree: 0,
+            ..Default::default()
+        };
+        for i in 0..n {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let t = golden * i as f64;
+            let nrm = [r * t.cos(), r * t.sin(), z];
+            g.means.push(nrm.map(|v| v as f32));
+            let q = if nrm[2] > -0.999 {
+                [1.0 + nrm[2], -nrm[1], nrm[0], 0.0]
+            } else {
+                [0.0, 1.0, 0.0, 0.0]
+            };
+            g.rotations.push(q.map(|v| v as f32));
+            g.scales.push([0.04, 0.04, 0.004]);
+            g.opacities.push(0.95);
+            g.sh.push([0.5, 0.2, 0.1]);
+        }
+        let cams = crate::ops::render::orbit_cameras(
+            &g.means,
+            6,
+            128,
+            128,
+            50.0,
+            20.0,
+            Some(4.0),
+            glam::DVec3::Z,
+        )
+        .unwrap();
+        let opts = LevelsetOptions {
+            max_points: 20_000,
+            seed: 3,
+            ..Default::default()
+        };
+        let pts = sample_levelset(&g, &cams, &opts, |_| ()).unwrap();
+        assert!(pts.positions.len() > 10_000, "{}", pts.positions.len());
+        let mut off = 0;
+        for (p, nv) in pts.positions.iter().zip(&pts.normals) {
+            let p = p.map(f64::from);
+            let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            assert!((l - 1.0).abs() < 0.02, "radius {l}");
+            let cos = (nv[0] as f64 * p[0] + nv[1] as f64 * p[1] + nv[2] as f64 * p[2]) / l;
+            assert!(cos > 0.0, "inward normal at {p:?}");
+            if cos < 20f64.to_radians().cos() {
+                off += 1;
+            }
+        }
+        assert!(off * 100 <= pts.positions.len(), "{off} normals beyond 20°");
+        // deterministic for a seed, whatever the thread count
+        let again = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| sample_levelset(&g, &cams, &opts, |_| ()).unwrap());
+        assert_eq!(again.positions, pts.positions);
+    }
+}

@@ -1,0 +1,179 @@
+//! The two quick alternatives to level-set sampling for turning Gaussians
+//! into oriented points (`splat2points --method centers | depth`).
+//!
+//! - [`centers`]: the centres of the Gaussians with opacity above a
+//!   threshold; normal = the shortest axis, signed toward the majority of the
+//!   cameras that see the centre (in front of the near plane, inside the
+//!   image); colour = the DC colour C0·f_dc + 0.5.
+//! - [`depth_points`]: per camera, the alpha-blended median depth map is
+//!   back-projected through pixel centres; the normal at a pixel is the
+//!   cross product of the central differences of the back-projected points
+//!   (as 2DGS derives normals from depth), turned toward the camera; pixels
+//!   without depth or on a depth edge (a neighbour missing) are skipped;
+//!   colour from a DC-only render; a seeded random subset of at most
+//!   ⌊max/N⌋ + 1 points per view.
+
+use rand::{RngExt, SeedableRng};
+use rayon::prelude::*;
+use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
+use splatkit_render::sh::sh_to_rgb;
+
+use crate::geom::levelset::{LevelPoints, back_project};
+use crate::model::Camera;
+
+/// Position, normal, colour.
+type ColouredPoint = ([f32; 3], [f32; 3], [u8; 3]);
+
+fn dc_only(g: &Gaussians3) -> Gaussians3 {
+    let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
+    Gaussians3 {
+        sh: (0..g.len()).map(|i| g.sh[i * nc]).collect(),
+        sh_degree: 0,
+        ..g.clone()
+    }
+}
+
+/// Gaussian centres with opacity > `min_opacity` (see the module docs).
+pub fn centers(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> LevelPoints {
+    let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
+    let rows: Vec<Option<ColouredPoint>> = (0..g.len())
+        .into_par_iter()
+        .map(|i| {
+            if g.opacities[i].is_nan()
+                || g.opacities[i] <= min_opacity
+                || g.means[i].iter().any(|v| !v.is_finite())
+            {
+                return None;
+            }
+            let s = g.scales[i];
+            let k = (0..3)
+                .min_by(|&a, &b| s[a].total_cmp(&s[b]))
+                .expect("3 axes");
+            let q = glam::DQuat::from_xyzw(
+                g.rotations[i][1] as f64,
+                g.rotations[i][2] as f64,
+                g.rotations[i][3] as f64,
+                g.rotations[i][0] as f64,
+            );
+            let q = if q.length() > 0.0 {
+                q.normalize()
+            } else {
+                glam::DQuat::IDENTITY
+            };
+            let axis = q * [glam::DVec3::X, glam::DVec3::Y, glam::DVec3::Z][k];
+            let mu = glam::DVec3::from(g.means[i].map(f64::from));
+            let mut vote = 0i64;
+            for c in cams {
+                let Some((px, z)) = c.project(mu) else {
+                    continue;
+                };
+                if z <= near
+                    || px.x < 0.0
+                    || px.y < 0.0
+                    || px.x >= c.width as f64
+                    || px.y >= c.height as f64
+                {
+                    continue;
+                }
+                vote += if axis.dot(c.center() - mu) >= 0.0 {
+                    1
+                } else {
+                    -1
+                };
+            }
+            let n = if vote < 0 { -axis } else { axis };
+            let dc = g.sh[i * nc];
+            Some((
+                g.means[i],
+                [n.x as f32, n.y as f32, n.z as f32],
+                dc.map(|v| (sh_to_rgb(v).clamp(0.0, 1.0) * 255.0).round() as u8),
+            ))
+        })
+        .collect();
+    let mut out = LevelPoints::default();
+    for (p, n, c) in rows.into_iter().flatten() {
+        out.positions.push(p);
+        out.normals.push(n);
+        out.colors.push(c);
+        out.level.push(0.0);
+        out.camera.push(u32::MAX);
+    }
+    out
+}
+
+/// Back-projected median-depth maps (see the module docs).
+pub fn depth_points(
+    g: &Gaussians3,
+    cams: &[Camera],
+    max_points: usize,
+    seed: u64,
+    near: f64,
+    mut progress: impl FnMut(usize),
+) -> LevelPoints {
+    let dc = dc_only(g);
+    let s = RasterSettings {
+        background: [0.0; 3],
+        near,
+    };
+    let per_view = max_points / cams.len().max(1) + 1;
+    let mut out = LevelPoints::default();
+    for (ci, cam) in cams.iter().enumerate() {
+        let img = gaussian::render(&dc, cam, &s);
+        let (w, h) = (img.width, img.height);
+        let d = &img.median_depth;
+        let eye = cam.center();
+        let pts: Vec<Option<([f64; 3], [f64; 3])>> = (0..w * h)
+            .into_par_iter()
+            .map(|o| {
+                let (x, y) = (o % w, o / w);
+                if x == 0 || y == 0 || x + 1 == w || y + 1 == h || d[o] <= 0.0 {
+                    return None;
+                }
+                let nb = [o - 1, o + 1, o - w, o + w];
+                if nb.iter().any(|&k| d[k] <= 0.0) {
+                    return None;
+                }
+                let p = |k: usize| back_project(cam, k % w, k / w, d[k] as f64);
+                let (l, r, u, b) = (p(o - 1), p(o + 1), p(o - w), p(o + w));
+                let dx = [r[0] - l[0], r[1] - l[1], r[2] - l[2]];
+                let dy = [b[0] - u[0], b[1] - u[1], b[2] - u[2]];
+                let mut n = [
+                    dx[1] * dy[2] - dx[2] * dy[1],
+                    dx[2] * dy[0] - dx[0] * dy[2],
+                    dx[0] * dy[1] - dx[1] * dy[0],
+                ];
+                let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                if !(len > 0.0 && len.is_finite()) {
+                    return None;
+                }
+                n = n.map(|c| c / len);
+                let x3 = p(o);
+                let to = [eye.x - x3[0], eye.y - x3[1], eye.z - x3[2]];
+                if n[0] * to[0] + n[1] * to[1] + n[2] * to[2] < 0.0 {
+                    n = n.map(|c| -c);
+                }
+                Some((x3, n))
+            })
+            .collect();
+        let mut valid: Vec<usize> = (0..pts.len()).filter(|&o| pts[o].is_some()).collect();
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(
+            seed ^ (ci as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        );
+        let take = per_view.min(valid.len());
+        for k in 0..take {
+            let j = rng.random_range(k..valid.len());
+            valid.swap(k, j);
+        }
+        for &o in &valid[..take] {
+            let (x, n) = pts[o].expect("valid");
+            out.positions.push(x.map(|v| v as f32));
+            out.normals.push(n.map(|v| v as f32));
+            out.colors
+                .push(img.rgb[o].map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8));
+            out.level.push(0.0);
+            out.camera.push(ci as u32);
+        }
+        progress(ci);
+    }
+    out
+}

@@ -1,0 +1,262 @@
+//! `splat2points`: a 3DGS scene to an oriented, coloured point cloud for
+//! `poisson` — SuGaR's level-set sampling ([`crate::geom::levelset`]) or the
+//! quick `centers` / `depth` methods ([`crate::geom::splat_points`]).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, ValueEnum};
+use serde_json::json;
+
+use crate::cli::{Common, check_binary_stdout, shown};
+use crate::geom::levelset::{DepthSource, LevelPoints, LevelsetOptions, sample_levelset};
+use crate::geom::splat_points::{centers, depth_points};
+use crate::io::cameras::read_cameras;
+use crate::io::ply::{Format, points::write_points};
+use crate::io::{ply, read_input, write_output};
+use crate::model::{Camera, Column, PointCloud, Property, ScalarData};
+
+/// How points are made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// SuGaR's level-set sampling along camera rays.
+    Levelset,
+    /// Gaussian centres, normals from the shortest axis.
+    Centers,
+    /// Back-projected median-depth maps, normals from depth gradients.
+    Depth,
+}
+
+/// Depth source of the level-set method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DepthArg {
+    /// Camera-facing ±2σ diamonds in a z-buffer (SuGaR's default).
+    Diamonds,
+    /// The alpha-blended median depth.
+    Gaussian,
+}
+
+/// Arguments of `splat2points`.
+#[derive(Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  splat2points output/garden/ -o points.ply                 # 3DGS model folder: latest iteration, cameras.json
+  splat2points scene.ply --cameras sparse/0 --level 0.1,0.3,0.5 --provenance -o points.ply
+  splat2points scene.ply --cameras cameras.json | poisson - --depth 10 -o mesh.ply
+  splat2points scene.ply --cameras cameras.json --method centers -o centres.ply")]
+pub struct Splat2PointsArgs {
+    /// A 3DGS Gaussian PLY, or a 3DGS model folder (uses
+    /// `point_cloud/iteration_*/point_cloud.ply` and `cameras.json`).
+    pub scene: PathBuf,
+    /// Camera file or folder (default: `cameras.json` of a model folder).
+    #[arg(long)]
+    pub cameras: Option<PathBuf>,
+    /// Output PLY; `-` = stdout.
+    #[arg(short, long, default_value = "-")]
+    pub output: PathBuf,
+    #[arg(long, value_enum, default_value = "levelset")]
+    pub method: Method,
+    /// Density levels λ (comma-separated; each gives its own points).
+    #[arg(long, value_delimiter = ',', default_value = "0.3")]
+    pub level: Vec<f32>,
+    /// Depth used to find the surface along each ray (levelset).
+    #[arg(long, value_enum, default_value = "diamonds")]
+    pub depth: DepthArg,
+    /// Total point cap over all views, per level.
+    #[arg(long, default_value_t = 10_000_000)]
+    pub max_points: usize,
+    /// Gaussians with opacity at or below this are dropped.
+    #[arg(long, default_value_t = 0.5)]
+    pub min_opacity: f32,
+    /// Hold out every N-th camera (name-sorted, from the first) as 3DGS's
+    /// test split does; 0 keeps all.
+    #[arg(long, default_value_t = 8)]
+    pub every_nth_test: usize,
+    /// Use every camera (same as --every-nth-test 0).
+    #[arg(long)]
+    pub all_views: bool,
+    /// Model iteration to read from a model folder (default: the latest).
+    #[arg(long)]
+    pub iteration: Option<u64>,
+    /// Add `level` and `camera` properties to the points.
+    #[arg(long)]
+    pub provenance: bool,
+    /// Random seed (pixel choice).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Near plane of the renders.
+    #[arg(long, default_value_t = 0.2)]
+    pub near: f64,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// The Gaussian PLY and camera file of a 3DGS model folder.
+pub fn resolve_model_folder(
+    dir: &Path,
+    iteration: Option<u64>,
+) -> anyhow::Result<(PathBuf, PathBuf)> {
+    let pc = dir.join("point_cloud");
+    let mut found: Vec<(u64, PathBuf)> = std::fs::read_dir(&pc)
+        .with_context(|| {
+            format!(
+                "{} is not a 3DGS model folder (no point_cloud/)",
+                dir.display()
+            )
+        })?
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let it = name.strip_prefix("iteration_")?.parse::<u64>().ok()?;
+            let f = e.path().join("point_cloud.ply");
+            f.is_file().then_some((it, f))
+        })
+        .collect();
+    found.sort();
+    let ply = match iteration {
+        Some(want) => found
+            .iter()
+            .find(|(it, _)| *it == want)
+            .map(|(_, p)| p.clone())
+            .with_context(|| {
+                format!(
+                    "{}: no iteration_{want}/point_cloud.ply (found {:?})",
+                    pc.display(),
+                    found.iter().map(|f| f.0).collect::<Vec<_>>()
+                )
+            })?,
+        None => found
+            .last()
+            .map(|(_, p)| p.clone())
+            .with_context(|| format!("{}: no iteration_*/point_cloud.ply", pc.display()))?,
+    };
+    Ok((ply, dir.join("cameras.json")))
+}
+
+/// Keeps the training views: drops every `n`-th camera of the name-sorted
+/// list, starting with the first (3DGS `llffhold`); `n = 0` keeps all.
+pub fn training_views(mut cams: Vec<Camera>, n: usize) -> Vec<Camera> {
+    if n == 0 {
+        return cams;
+    }
+    cams.sort_by(|a, b| a.name.cmp(&b.name));
+    cams.into_iter()
+        .enumerate()
+        .filter(|(i, _)| i % n != 0)
+        .map(|(_, c)| c)
+        .collect()
+}
+
+/// The output cloud, with `level` / `camera` properties when asked.
+pub fn to_point_cloud(p: LevelPoints, provenance: bool) -> PointCloud {
+    let mut pc = PointCloud {
+        positions: p.positions,
+        normals: Some(p.normals),
+        colors: Some(p.colors),
+        ..Default::default()
+    };
+    if provenance {
+        pc.extras.item.push(Property {
+            name: "level".into(),
+            data: Column::Scalar(ScalarData::F32(p.level)),
+        });
+        pc.extras.item.push(Property {
+            name: "camera".into(),
+            data: Column::Scalar(ScalarData::U32(p.camera)),
+        });
+    }
+    pc
+}
+
+/// `splat2points` entry point.
+pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
+    args.common.init()?;
+    args.common.check_stdout_free(&args.output)?;
+    check_binary_stdout(&args.output)?;
+    let t0 = std::time::Instant::now();
+    let (scene, default_cams) = if args.scene.is_dir() {
+        let (p, c) = resolve_model_folder(&args.scene, args.iteration)?;
+        (p, Some(c))
+    } else {
+        (args.scene.clone(), None)
+    };
+    let cam_path = args
+        .cameras
+        .clone()
+        .or(default_cams)
+        .context("give --cameras (or a 3DGS model folder holding cameras.json)")?;
+    let input = read_input(&scene)?;
+    let g = ply::gaussians::parse_gaussians(&input.name, &input)
+        .with_context(|| format!("reading {}", shown(&scene, false)))?
+        .to_raster();
+    let all = read_cameras(&cam_path)
+        .with_context(|| format!("reading cameras {}", cam_path.display()))?;
+    let n_all = all.len();
+    let cams = training_views(
+        all,
+        if args.all_views {
+            0
+        } else {
+            args.every_nth_test
+        },
+    );
+    if cams.is_empty() {
+        bail!("no cameras left after holding out test views (use --all-views)");
+    }
+    for c in &cams {
+        c.require_pinhole()
+            .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
+    }
+    let pb = args.common.progress(cams.len() as u64, "views");
+    let points = match args.method {
+        Method::Levelset => {
+            let opts = LevelsetOptions {
+                levels: args.level.clone(),
+                max_points: args.max_points,
+                min_opacity: args.min_opacity,
+                depth: match args.depth {
+                    DepthArg::Diamonds => DepthSource::Diamonds,
+                    DepthArg::Gaussian => DepthSource::Median,
+                },
+                seed: args.seed,
+                near: args.near,
+                ..Default::default()
+            };
+            sample_levelset(&g, &cams, &opts, |_| pb.inc(1))?
+        }
+        Method::Centers => centers(&g, &cams, args.min_opacity, args.near),
+        Method::Depth => depth_points(&g, &cams, args.max_points, args.seed, args.near, |_| {
+            pb.inc(1)
+        }),
+    };
+    pb.finish_and_clear();
+    let n = points.positions.len();
+    if n == 0 {
+        eprintln!(
+            "warning: no points were produced (no level crossing seen; check --level, --min-opacity and the cameras)"
+        );
+    }
+    let pc = to_point_cloud(points, args.provenance);
+    write_output(&args.output, |w| {
+        write_points(w, &pc, Format::BinaryLittleEndian)
+    })?;
+    args.common.say(format!(
+        "splat2points: {} Gaussians, {} of {n_all} views -> {n} points ({:?}, {:.1} s)",
+        g.len(),
+        cams.len(),
+        args.method,
+        t0.elapsed().as_secs_f64()
+    ));
+    args.common.emit_json(&json!({
+        "scene": shown(&scene, false),
+        "cameras": cam_path.display().to_string(),
+        "views": cams.len(),
+        "views_total": n_all,
+        "gaussians": g.len(),
+        "points": n,
+        "method": format!("{:?}", args.method).to_lowercase(),
+        "levels": args.level,
+        "output": shown(&args.output, true),
+        "seconds": t0.elapsed().as_secs_f64(),
+    }))?;
+    Ok(())
+}
