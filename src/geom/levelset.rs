@@ -226,7 +226,7 @@ impl Density {
 /// The camera-facing diamonds of `g` seen from `cam`: 4 vertices and 2
 /// faces per Gaussian (faces 2i and 2i+1 belong to Gaussian i); Gaussians
 /// behind the camera get degenerate faces that are never hit.
-fn diamonds(g: &Gaussians3, cam: &Camera) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+pub fn diamonds(g: &Gaussians3, cam: &Camera) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let c = cam.center();
     let c = [c.x, c.y, c.z];
     let quads: Vec<[[f32; 3]; 4]> = (0..g.len())

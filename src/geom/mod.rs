@@ -13,5 +13,6 @@ pub mod sample;
 pub mod scene_split;
 pub mod splat_points;
 pub mod stats;
+pub mod synthetic;
 pub mod trim;
 pub mod voxel;

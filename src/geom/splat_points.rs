@@ -3,8 +3,10 @@
 //!
 //! - [`centers`]: the centres of the Gaussians with opacity above a
 //!   threshold; normal = the shortest axis, signed toward the majority of the
-//!   cameras that see the centre (in front of the near plane, inside the
-//!   image); colour = the DC colour C0·f_dc + 0.5.
+//!   cameras that see the Gaussian (at the pixel of its centre, the diamond
+//!   z-buffer of the level-set method holds nothing nearer than its depth
+//!   minus its own 2σ reach), or of all cameras with the centre in view when
+//!   none sees it; colour = the DC colour C0·f_dc + 0.5.
 //! - [`depth_points`]: per camera, the alpha-blended median depth map is
 //!   back-projected through pixel centres; the normal at a pixel is the
 //!   cross product of the central differences of the back-projected points
@@ -18,11 +20,10 @@ use rayon::prelude::*;
 use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 use splatkit_render::sh::sh_to_rgb;
 
-use crate::geom::levelset::{LevelPoints, back_project};
-use crate::model::Camera;
+use splatkit_render::mesh as zbuffer;
 
-/// Position, normal, colour.
-type ColouredPoint = ([f32; 3], [f32; 3], [u8; 3]);
+use crate::geom::levelset::{LevelPoints, back_project, diamonds};
+use crate::model::Camera;
 
 fn dc_only(g: &Gaussians3) -> Gaussians3 {
     let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
@@ -36,65 +37,85 @@ fn dc_only(g: &Gaussians3) -> Gaussians3 {
 /// Gaussian centres with opacity > `min_opacity` (see the module docs).
 pub fn centers(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> LevelPoints {
     let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
-    let rows: Vec<Option<ColouredPoint>> = (0..g.len())
+    let keep: Vec<usize> = (0..g.len())
+        .filter(|&i| {
+            !(g.opacities[i].is_nan() || g.opacities[i] <= min_opacity)
+                && g.means[i].iter().all(|v| v.is_finite())
+        })
+        .collect();
+    let kept = Gaussians3 {
+        means: keep.iter().map(|&i| g.means[i]).collect(),
+        scales: keep.iter().map(|&i| g.scales[i]).collect(),
+        rotations: keep.iter().map(|&i| g.rotations[i]).collect(),
+        opacities: keep.iter().map(|&i| g.opacities[i]).collect(),
+        sh: keep.iter().map(|&i| g.sh[i * nc]).collect(),
+        sh_degree: 0,
+    };
+    // the shortest axis of each kept Gaussian
+    let axes: Vec<glam::DVec3> = (0..kept.len())
         .into_par_iter()
         .map(|i| {
-            if g.opacities[i].is_nan()
-                || g.opacities[i] <= min_opacity
-                || g.means[i].iter().any(|v| !v.is_finite())
-            {
-                return None;
-            }
-            let s = g.scales[i];
+            let s = kept.scales[i];
             let k = (0..3)
                 .min_by(|&a, &b| s[a].total_cmp(&s[b]))
                 .expect("3 axes");
-            let q = glam::DQuat::from_xyzw(
-                g.rotations[i][1] as f64,
-                g.rotations[i][2] as f64,
-                g.rotations[i][3] as f64,
-                g.rotations[i][0] as f64,
-            );
+            let r = kept.rotations[i].map(f64::from);
+            let q = glam::DQuat::from_xyzw(r[1], r[2], r[3], r[0]);
             let q = if q.length() > 0.0 {
                 q.normalize()
             } else {
                 glam::DQuat::IDENTITY
             };
-            let axis = q * [glam::DVec3::X, glam::DVec3::Y, glam::DVec3::Z][k];
-            let mu = glam::DVec3::from(g.means[i].map(f64::from));
-            let mut vote = 0i64;
-            for c in cams {
-                let Some((px, z)) = c.project(mu) else {
-                    continue;
+            q * [glam::DVec3::X, glam::DVec3::Y, glam::DVec3::Z][k]
+        })
+        .collect();
+    // votes (seen, in view) per Gaussian: +1 when the axis faces the camera
+    let mut seen = vec![0i64; kept.len()];
+    let mut in_view = vec![0i64; kept.len()];
+    for cam in cams {
+        let (pos, faces) = diamonds(&kept, cam);
+        let z = zbuffer::render(&pos, &faces, cam, near);
+        let w = cam.width as usize;
+        let votes: Vec<(i64, i64)> = (0..kept.len())
+            .into_par_iter()
+            .map(|i| {
+                let mu = glam::DVec3::from(kept.means[i].map(f64::from));
+                let Some((px, d)) = cam.project(mu) else {
+                    return (0, 0);
                 };
-                if z <= near
+                if d <= near
                     || px.x < 0.0
                     || px.y < 0.0
-                    || px.x >= c.width as f64
-                    || px.y >= c.height as f64
+                    || px.x >= cam.width as f64
+                    || px.y >= cam.height as f64
                 {
-                    continue;
+                    return (0, 0);
                 }
-                vote += if axis.dot(c.center() - mu) >= 0.0 {
+                let sign = if axes[i].dot(cam.center() - mu) >= 0.0 {
                     1
                 } else {
                     -1
                 };
-            }
-            let n = if vote < 0 { -axis } else { axis };
-            let dc = g.sh[i * nc];
-            Some((
-                g.means[i],
-                [n.x as f32, n.y as f32, n.z as f32],
-                dc.map(|v| (sh_to_rgb(v).clamp(0.0, 1.0) * 255.0).round() as u8),
-            ))
-        })
-        .collect();
+                let o = px.y as usize * w + px.x as usize;
+                // nothing in front of it beyond its own diamond's reach
+                let reach = 2.0 * kept.scales[i].iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
+                let visible = z.face[o] != zbuffer::NO_FACE && z.depth[o] as f64 >= d - reach;
+                (if visible { sign } else { 0 }, sign)
+            })
+            .collect();
+        for (i, (a, b)) in votes.into_iter().enumerate() {
+            seen[i] += a;
+            in_view[i] += b;
+        }
+    }
     let mut out = LevelPoints::default();
-    for (p, n, c) in rows.into_iter().flatten() {
-        out.positions.push(p);
-        out.normals.push(n);
-        out.colors.push(c);
+    for (k, &i) in keep.iter().enumerate() {
+        let vote = if seen[k] != 0 { seen[k] } else { in_view[k] };
+        let n = if vote < 0 { -axes[k] } else { axes[k] };
+        out.positions.push(g.means[i]);
+        out.normals.push([n.x as f32, n.y as f32, n.z as f32]);
+        out.colors
+            .push(g.sh[i * nc].map(|v| (sh_to_rgb(v).clamp(0.0, 1.0) * 255.0).round() as u8));
         out.level.push(0.0);
         out.camera.push(u32::MAX);
     }

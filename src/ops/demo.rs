@@ -1,11 +1,20 @@
-//! `demo`: the built-in default scene, run end to end through the triangle
-//! tools, so a newcomer sees every stage work with one command.
+//! `demo`: the built-in default scene, end to end, so a newcomer sees every
+//! stage work with one command and no download.
 //!
-//! Scene ([`demo_soup`]): a torus (major radius 1, minor 0.35) tiled with
-//! solid, opaque triangles (α = 0.95, σ = 0.5) coloured by angle with SH
-//! degree 3, plus "floaters" — random triangles that are either transparent
-//! (α = 0.2) or soft (σ = 3) — as training leaves them. The run writes the
-//! scene as a Triangle Splatting checkpoint and a soup PLY, prunes it with the
+//! Part 1, SuGaR's coarse-mesh path on Gaussians: a torus (major radius 1,
+//! minor 0.35) covered with flat, coloured Gaussians plus transparent
+//! floaters ([`Torus::gaussians`]) and orbit cameras around it are written as
+//! `scene.ply` and `cameras.json`; then `splat2points` (level 0.3),
+//! `poisson` (depth 8) and `clean` (largest component) make `mesh.ply`, and
+//! `chamfer` compares it with the true torus (`truth.ply`, a fine mesh of the
+//! exact surface; the mean distance of the mesh vertices to the exact torus
+//! is reported too); one view of the splats and of the mesh is rendered.
+//!
+//! Part 2, the triangle tools ([`demo_soup`]): a torus tiled with solid,
+//! opaque triangles (α = 0.95, σ = 0.5) coloured by angle with SH degree 3,
+//! plus "floaters" — random triangles that are either transparent (α = 0.2)
+//! or soft (σ = 3) — as training leaves them. The run writes the scene as a
+//! Triangle Splatting checkpoint and a soup PLY, prunes it with the
 //! game-engine preset, and exports OFF and GLB; the pruned count must equal
 //! the torus's triangle count (every floater removed, every surface triangle
 //! kept), which the demo checks.
@@ -17,16 +26,33 @@ use clap::Args;
 use rand::{RngExt, SeedableRng};
 use serde_json::json;
 
+use std::time::Instant;
+
+use glam::DVec3;
+use splatkit_render::gaussian::{self, RasterSettings};
+
 use crate::cli::Common;
+use crate::geom::clean::ComponentFilter;
+use crate::geom::levelset::{LevelsetOptions, sample_levelset};
+use crate::geom::synthetic::Torus;
+use crate::io::cameras::write_gs_json;
 use crate::io::gltf::{GltfWriteOptions, write_gltf};
+use crate::io::image::{to_u8, write_png8};
 use crate::io::off::{OffWriteOptions, write_off};
+use crate::io::ply;
+use crate::io::ply::points::write_points;
 use crate::io::ply::{Format, soup::write_soup};
 use crate::io::{torch_pt, write_output};
 use crate::model::gaussians::logit;
 use crate::model::{Extras, TriangleSoup};
+use crate::ops::chamfer::{GenericParams, SampleMode, chamfer_generic, mesh_cloud};
+use crate::ops::clean::{CleanSteps, clean_mesh};
 use crate::ops::export_off::{ExportParams, soup_to_mesh};
 use crate::ops::info::{describe, render_text};
+use crate::ops::poisson::{PipelineOptions, run_pipeline};
 use crate::ops::prune_triangles::{PruneParams, prune};
+use crate::ops::render::orbit_cameras;
+use crate::ops::splat2points::to_point_cloud;
 
 /// The demo scene: `(soup, number of torus triangles)`; floaters follow the torus.
 pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
@@ -92,19 +118,203 @@ pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
   splatkit demo                 # writes splatkit-demo/
-  splatkit demo -o /tmp/d --seed 7 --segments 128 --json")]
+  splatkit demo -o /tmp/d --seed 7 --views 24 --json")]
 pub struct DemoArgs {
     /// Output folder (created if needed).
     #[arg(short, long, default_value = "splatkit-demo")]
     pub output: PathBuf,
-    /// Seed of the generated scene.
+    /// Seed of the generated scenes and of the sampling.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Torus segments around the ring (triangles = segments² roughly).
+    /// Cameras around the Gaussian torus.
+    #[arg(long, default_value_t = 16)]
+    pub views: usize,
+    /// Image size (square) of those cameras.
+    #[arg(long, default_value_t = 256)]
+    pub size: u32,
+    /// Poisson depth.
+    #[arg(long, default_value_t = 8)]
+    pub depth: u32,
+    /// Torus segments around the ring of the triangle scene (triangles =
+    /// segments² roughly).
     #[arg(long, default_value_t = 96)]
     pub segments: usize,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// One line of the demo's table: stage, result, seconds.
+type StageRow = (String, String, f64);
+
+/// The Gaussian torus of part 1.
+pub const DEMO_TORUS: Torus = Torus {
+    major: 1.0,
+    minor: 0.35,
+};
+
+/// Part 1: Gaussians → points → mesh → score. Returns the JSON report and
+/// the table rows (stage, result, seconds).
+fn gaussian_part(args: &DemoArgs) -> anyhow::Result<(serde_json::Value, Vec<StageRow>)> {
+    let out = |f: &str| -> PathBuf { args.output.join(f) };
+    let mut rows = Vec::new();
+    let t = Instant::now();
+    let raw = DEMO_TORUS.gaussians(160, 56, 0.004, 300, args.seed);
+    let g = raw.to_raster();
+    // two rings, above and below, so every side of the torus is seen
+    let ring = |n: usize, elevation: f64| {
+        orbit_cameras(
+            &DEMO_TORUS.mesh(64, 24).vertices,
+            n,
+            args.size,
+            args.size,
+            50.0,
+            elevation,
+            Some(3.6),
+            DVec3::Y,
+        )
+    };
+    let views = args.views.max(2);
+    let mut cams = ring(views - views / 2, 35.0)?;
+    for (k, mut c) in ring(views / 2, -35.0)?.into_iter().enumerate() {
+        c.name = format!("below_{k:03}");
+        cams.push(c);
+    }
+    write_output(&out("scene.ply"), |w| {
+        ply::gaussians::write_gaussians(w, &raw, Format::BinaryLittleEndian)
+    })?;
+    write_gs_json(&out("cameras.json"), &cams)?;
+    let truth = DEMO_TORUS.mesh(720, 240);
+    write_output(&out("truth.ply"), |w| {
+        ply::mesh::write_mesh(w, &truth, Format::BinaryLittleEndian)
+    })?;
+    rows.push((
+        "generate".into(),
+        format!(
+            "{} Gaussians ({} floaters), {} cameras",
+            g.len(),
+            300,
+            cams.len()
+        ),
+        t.elapsed().as_secs_f64(),
+    ));
+    let t = Instant::now();
+    let opts = LevelsetOptions {
+        max_points: 1_000_000,
+        seed: args.seed,
+        ..Default::default()
+    };
+    let pts = sample_levelset(&g, &cams, &opts, |_| ())?;
+    let cloud = to_point_cloud(pts, false);
+    write_output(&out("points.ply"), |w| {
+        write_points(w, &cloud, Format::BinaryLittleEndian)
+    })?;
+    rows.push((
+        "splat2points".into(),
+        format!("{} points (level 0.3)", cloud.positions.len()),
+        t.elapsed().as_secs_f64(),
+    ));
+    let t = Instant::now();
+    let mut popt = PipelineOptions::default();
+    popt.params.depth = args.depth;
+    let rec = run_pipeline(cloud, &popt)?;
+    rows.push((
+        "poisson".into(),
+        format!(
+            "{} vertices, {} faces (depth {})",
+            rec.mesh.vertices.len(),
+            rec.mesh.faces.len(),
+            args.depth
+        ),
+        t.elapsed().as_secs_f64(),
+    ));
+    let t = Instant::now();
+    let mut mesh = rec.mesh;
+    let steps = CleanSteps {
+        components: ComponentFilter {
+            keep_largest: Some(1),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    clean_mesh(&mut mesh, &steps);
+    write_output(&out("mesh.ply"), |w| {
+        ply::mesh::write_mesh(w, &mesh, Format::BinaryLittleEndian)
+    })?;
+    rows.push((
+        "clean".into(),
+        format!(
+            "{} vertices, {} faces",
+            mesh.vertices.len(),
+            mesh.faces.len()
+        ),
+        t.elapsed().as_secs_f64(),
+    ));
+    let t = Instant::now();
+    let cp = GenericParams {
+        sample: SampleMode::Area,
+        count: 200_000,
+        thresholds: vec![0.01, 0.02],
+        seed: args.seed,
+        ..GenericParams::vertices()
+    };
+    let report = chamfer_generic(&mesh_cloud(&mesh, &cp)?, &mesh_cloud(&truth, &cp)?, &cp)?;
+    let exact: f64 = mesh
+        .vertices
+        .iter()
+        .map(|v| DEMO_TORUS.distance(v.map(f64::from)))
+        .sum::<f64>()
+        / mesh.vertices.len().max(1) as f64;
+    rows.push((
+        "chamfer".into(),
+        format!(
+            "Chamfer-L1 {:.4} (acc {:.4}, comp {:.4}); vertices to exact torus {:.4}",
+            report.chamfer_l1, report.accuracy.mean, report.completeness.mean, exact
+        ),
+        t.elapsed().as_secs_f64(),
+    ));
+    let t = Instant::now();
+    let view = &cams[0];
+    let s = RasterSettings {
+        background: [1.0; 3],
+        near: 0.2,
+    };
+    let splats = gaussian::render(&g, view, &s);
+    let z = splatkit_render::mesh::render(&mesh.vertices, &mesh.faces, view, 0.2);
+    let (w, h) = (view.width as usize, view.height as usize);
+    let mut side = vec![255u8; 2 * w * h * 3];
+    for y in 0..h {
+        for x in 0..w {
+            let o = y * w + x;
+            let left = splats.rgb[o].map(to_u8);
+            let shade = if z.face[o] == splatkit_render::mesh::NO_FACE {
+                255
+            } else {
+                to_u8(0.2 + 0.8 * (-z.normal[o][2]).max(0.0))
+            };
+            let base = (y * 2 * w + x) * 3;
+            side[base..base + 3].copy_from_slice(&left);
+            side[base + 3 * w..base + 3 * w + 3].copy_from_slice(&[shade; 3]);
+        }
+    }
+    write_output(&out("view.png"), |wr| {
+        write_png8(wr, "view.png", 2 * w, h, 3, &side)
+    })?;
+    rows.push((
+        "render".into(),
+        "view.png: splats | mesh".into(),
+        t.elapsed().as_secs_f64(),
+    ));
+    let json = json!({
+        "gaussians": g.len(),
+        "cameras": cams.len(),
+        "points": rows[1].1,
+        "mesh_vertices": mesh.vertices.len(),
+        "mesh_faces": mesh.faces.len(),
+        "chamfer": report,
+        "mean_vertex_distance_to_torus": exact,
+        "stages": rows.iter().map(|r| json!({"stage": r.0, "result": r.1, "seconds": r.2})).collect::<Vec<_>>(),
+    });
+    Ok((json, rows))
 }
 
 /// Runs the demo.
@@ -112,6 +322,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     args.common.init()?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
+    let (gauss_json, rows) = gaussian_part(&args)?;
     let out = |f: &str| -> PathBuf { args.output.join(f) };
     let (soup, surface) = demo_soup(args.seed, args.segments);
     let pb = args.common.progress(5, "demo");
@@ -153,8 +364,13 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         .collect::<crate::Result<_>>()?;
     pb.finish_and_clear();
     if !args.common.quiet && !args.common.json_to_stdout() {
+        eprintln!("demo, part 1: Gaussian torus -> points -> mesh -> score");
+        eprintln!("  {:<13} {:<78} {:>8}", "stage", "result", "seconds");
+        for (stage, result, secs) in &rows {
+            eprintln!("  {stage:<13} {result:<78} {secs:>8.2}");
+        }
         eprintln!(
-            "demo: generated {} triangles ({} on a torus, {} floaters); prune kept {}; exported {} vertices / {} faces",
+            "demo, part 2: generated {} triangles ({} on a torus, {} floaters); prune kept {}; exported {} vertices / {} faces",
             soup.len(),
             surface,
             soup.len() - surface,
@@ -165,10 +381,14 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         for i in &infos {
             eprint!("{}", render_text(i));
         }
-        eprintln!("outputs in {}", shown_dir(&args.output));
+        eprintln!(
+            "outputs in {}: scene.ply cameras.json truth.ply points.ply mesh.ply view.png (part 1), scene.pt scene_soup.ply solid.pt solid.off solid.glb (part 2)",
+            shown_dir(&args.output)
+        );
     }
     args.common.emit_json(&json!({
         "output": shown_dir(&args.output),
+        "gaussian_pipeline": gauss_json,
         "triangles": soup.len(),
         "surface_triangles": surface,
         "prune": report,

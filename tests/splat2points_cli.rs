@@ -1,0 +1,197 @@
+//! `splat2points` as a binary on the generated Gaussian torus: a 3DGS model
+//! folder (latest iteration, cameras.json), the test-view holdout, the
+//! `level`/`camera` provenance properties, every method's points near the
+//! true surface with outward normals, and a pipe into `poisson`.
+
+use assert_cmd::Command;
+use glam::DVec3;
+use splatkit::geom::synthetic::Torus;
+use splatkit::io::ply::{Format, gaussians::write_gaussians, points::parse_points};
+use splatkit::ops::render::orbit_cameras;
+
+const T: Torus = Torus {
+    major: 1.0,
+    minor: 0.35,
+};
+
+fn bin(name: &str) -> Command {
+    Command::cargo_bin(name).expect("binary built")
+}
+
+/// Writes a 3DGS model folder: iteration_100 (a decoy) and iteration_7000.
+fn model_folder(dir: &std::path::Path) {
+    let g = T.gaussians(120, 42, 0.004, 50, 1);
+    for it in [100, 7000] {
+        let d = dir.join(format!("point_cloud/iteration_{it}"));
+        std::fs::create_dir_all(&d).unwrap();
+        let mut f = std::fs::File::create(d.join("point_cloud.ply")).unwrap();
+        let g = if it == 100 {
+            T.gaussians(10, 5, 0.004, 0, 1)
+        } else {
+            g.clone()
+        };
+        write_gaussians(&mut f, &g, Format::BinaryLittleEndian).unwrap();
+    }
+    let mut cams = orbit_cameras(
+        &T.mesh(32, 12).vertices,
+        8,
+        128,
+        128,
+        50.0,
+        35.0,
+        Some(3.6),
+        DVec3::Y,
+    )
+    .unwrap();
+    cams.extend(
+        orbit_cameras(
+            &T.mesh(32, 12).vertices,
+            8,
+            128,
+            128,
+            50.0,
+            -35.0,
+            Some(3.6),
+            DVec3::Y,
+        )
+        .unwrap()
+        .into_iter()
+        .enumerate()
+        .map(|(k, mut c)| {
+            c.name = format!("below_{k:03}");
+            c
+        }),
+    );
+    splatkit::io::cameras::write_gs_json(&dir.join("cameras.json"), &cams).unwrap();
+}
+
+/// Points of every method lie near the torus with outward normals. Bounds:
+/// level set ≤ 0.03 from the surface (offset ≈ 0.006, plus the flat
+/// Gaussians' sagitta); centres ≤ 1e-4 (they are on it); depth-map points
+/// ≤ 0.05 (median depth of overlapping splats). Normals: ≥ 95% within 25°
+/// of the outward normal, none inward by more than 90° for the level set.
+#[test]
+fn methods_sample_the_surface() {
+    let dir = tempfile::tempdir().unwrap();
+    model_folder(dir.path());
+    for (method, bound) in [("levelset", 0.03), ("centers", 1e-4), ("depth", 0.05)] {
+        let out = bin("splat2points")
+            .arg(dir.path())
+            .args([
+                "--method",
+                method,
+                "--max-points",
+                "40000",
+                "--provenance",
+                "-q",
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{method}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let pc = parse_points("pts", &out.stdout).unwrap();
+        assert!(pc.len() > 1000, "{method}: {} points", pc.len());
+        let normals = pc.normals.as_ref().unwrap();
+        let mut off = 0;
+        for (p, n) in pc.positions.iter().zip(normals) {
+            let p = p.map(f64::from);
+            let d = T.distance(p);
+            assert!(d <= bound, "{method}: point {p:?} is {d} from the torus");
+            // outward normal of the torus at p
+            let ring = (p[0] * p[0] + p[2] * p[2]).sqrt();
+            let c = [p[0] / ring * T.major, 0.0, p[2] / ring * T.major];
+            let o = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            let l = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+            let cos = (o[0] * n[0] as f64 + o[1] * n[1] as f64 + o[2] * n[2] as f64) / l;
+            if cos < 25f64.to_radians().cos() {
+                off += 1;
+            }
+            if method == "levelset" {
+                assert!(cos > 0.0, "inward normal at {p:?}");
+            }
+        }
+        assert!(
+            off * 20 <= pc.len(),
+            "{method}: {off} of {} normals beyond 25°",
+            pc.len()
+        );
+        if method != "centers" {
+            let names: Vec<&str> = pc.extras.item.iter().map(|p| p.name.as_str()).collect();
+            assert!(
+                names.contains(&"level") && names.contains(&"camera"),
+                "{names:?}"
+            );
+        }
+    }
+}
+
+/// The holdout drops every 8th name-sorted view (2 of 16), `--all-views`
+/// keeps them, `--iteration` picks the decoy; the output pipes into poisson.
+#[test]
+fn holdout_iteration_and_pipe() {
+    let dir = tempfile::tempdir().unwrap();
+    model_folder(dir.path());
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let out = bin("splat2points")
+            .arg(dir.path())
+            .args(["--max-points", "2000", "-q", "-o"])
+            .arg(dir.path().join("p.ply"))
+            .args(extra)
+            .arg("--json")
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let v = json(&[]);
+    assert_eq!(
+        (v["views"].as_u64(), v["views_total"].as_u64()),
+        (Some(14), Some(16))
+    );
+    assert!(v["scene"].as_str().unwrap().contains("iteration_7000"));
+    assert_eq!(json(&["--all-views"])["views"], 16);
+    assert_eq!(json(&["--iteration", "100"])["gaussians"], 50);
+    let pts = bin("splat2points")
+        .arg(dir.path())
+        .args(["--max-points", "100000", "-q"])
+        .output()
+        .unwrap();
+    assert!(pts.status.success());
+    let mesh = bin("poisson")
+        .args(["-", "--depth", "7", "-q", "-o", "-"])
+        .write_stdin(pts.stdout)
+        .output()
+        .unwrap();
+    assert!(
+        mesh.status.success(),
+        "{}",
+        String::from_utf8_lossy(&mesh.stderr)
+    );
+    let m = splatkit::io::ply::mesh::parse_mesh("m", &mesh.stdout).unwrap();
+    let mean = m
+        .vertices
+        .iter()
+        .map(|v| T.distance(v.map(f64::from)))
+        .sum::<f64>()
+        / m.vertices.len() as f64;
+    // depth 7: cells of ~0.03; the mesh sits within a cell on average
+    assert!(mean < 0.03, "mean vertex distance {mean}");
+}
+
+/// A missing camera file or model folder is an error naming it.
+#[test]
+fn missing_inputs_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    bin("splat2points")
+        .arg(dir.path())
+        .assert()
+        .failure()
+        .stderr(predicates::str::contains("point_cloud"));
+}
