@@ -202,6 +202,9 @@ impl Density {
                 ci[6] * x[0] + ci[7] * x[1] + ci[8] * x[2],
             ];
             let q = x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+            if q > 80.0 {
+                continue; // e^{-40} < 5e-18: below f64 resolution of d ≤ 1
+            }
             let w = self.opacity[j] * (-0.5 * q).exp();
             d += w;
             for k in 0..3 {
