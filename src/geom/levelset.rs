@@ -610,4 +610,39 @@ mod tests {
             .install(|| sample_levelset(&g, &cams, &opts, |_| ()).unwrap());
         assert_eq!(again.positions, pts.positions);
     }
+
+    /// A plane z = 5 tiled with overlapping flat Gaussians (spacing 0.1,
+    /// in-plane σ 0.06, thickness s = 0.01) in front of a camera at the
+    /// origin. Where the tiles overlap, the in-plane sum D lies between 1 and
+    /// ~3.5, so the crossing sits at h = s·√(2 ln(D/λ)) ∈ [1.55 s, 2.5 s]
+    /// in front of the plane; every point lies in that slab and every normal
+    /// is −z within 2°.
+    #[test]
+    fn plane_of_flat_gaussians() {
+        let mut g = Gaussians3 {
+            sh_degree: 0,
+            ..Default::default()
+        };
+        for j in -30..=30 {
+            for i in -30..=30 {
+                g.means.push([i as f32 * 0.1, j as f32 * 0.1, 5.0]);
+                g.scales.push([0.06, 0.06, 0.01]);
+                g.rotations.push([1.0, 0.0, 0.0, 0.0]);
+                g.opacities.push(0.95);
+                g.sh.push([0.0; 3]);
+            }
+        }
+        let cams = [camera_at_origin(96, 100.0)];
+        let opts = LevelsetOptions {
+            max_points: 3000,
+            ..Default::default()
+        };
+        let pts = sample_levelset(&g, &cams, &opts, |_| ()).unwrap();
+        assert!(pts.positions.len() > 2500, "{}", pts.positions.len());
+        for (p, n) in pts.positions.iter().zip(&pts.normals) {
+            let h = 5.0 - p[2] as f64;
+            assert!((0.0155..0.025).contains(&h), "h {h} at {p:?}");
+            assert!(n[2] < -(2f32.to_radians().cos()), "normal {n:?}");
+        }
+    }
 }
