@@ -49,20 +49,8 @@ pub struct CullView {
 
 /// Decodes a PNG mask: object where channel 0 of the BGR image is nonzero.
 pub fn read_mask(path: &Path) -> Result<Mask> {
-    let name = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| Error::io(&name, e))?;
-    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
-    dec.set_transformations(png::Transformations::normalize_to_color8());
-    let mut reader = dec
-        .read_info()
-        .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
-    let size = reader
-        .output_buffer_size()
-        .ok_or_else(|| Error::format(&name, "PNG too large"))?;
-    let mut buf = vec![0u8; size];
-    let info = reader
-        .next_frame(&mut buf)
-        .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
+    let (info, buf) =
+        crate::io::image::decode_png(path, png::Transformations::normalize_to_color8())?;
     let (w, h) = (info.width as usize, info.height as usize);
     let channels = info.color_type.samples();
     // BGR channel 0 is blue: byte 2 of RGB/RGBA, the grey byte otherwise.

@@ -328,6 +328,24 @@ pub fn back_project(cam: &Camera, x: usize, y: usize, z: f64) -> [f64; 3] {
     [w.x, w.y, w.z]
 }
 
+/// The Gaussians with opacity > `min_opacity` and a finite centre, with
+/// their SH cut to the DC term: (their indices in `g`, the subset).
+pub fn opaque_dc_subset(g: &Gaussians3, min_opacity: f32) -> (Vec<usize>, Gaussians3) {
+    let keep: Vec<usize> = (0..g.len())
+        .filter(|&i| g.opacities[i] > min_opacity && g.means[i].iter().all(|v| v.is_finite()))
+        .collect();
+    let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
+    let kept = Gaussians3 {
+        means: keep.iter().map(|&i| g.means[i]).collect(),
+        scales: keep.iter().map(|&i| g.scales[i]).collect(),
+        rotations: keep.iter().map(|&i| g.rotations[i]).collect(),
+        opacities: keep.iter().map(|&i| g.opacities[i]).collect(),
+        sh: keep.iter().map(|&i| g.sh[i * nc]).collect(),
+        sh_degree: 0,
+    };
+    (keep, kept)
+}
+
 /// Samples oriented points on the level sets of `g` (activated values) seen
 /// from `cams`.
 pub fn sample_levelset(
@@ -348,18 +366,7 @@ pub fn sample_levelset(
         return Err(Error::invalid(format!("level {l} is not in (0, 1)")));
     }
     // 1. opacity filter
-    let keep: Vec<usize> = (0..g.len())
-        .filter(|&i| g.opacities[i] > opts.min_opacity && g.means[i].iter().all(|v| v.is_finite()))
-        .collect();
-    let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
-    let kept = Gaussians3 {
-        means: keep.iter().map(|&i| g.means[i]).collect(),
-        scales: keep.iter().map(|&i| g.scales[i]).collect(),
-        rotations: keep.iter().map(|&i| g.rotations[i]).collect(),
-        opacities: keep.iter().map(|&i| g.opacities[i]).collect(),
-        sh: keep.iter().map(|&i| g.sh[i * nc]).collect(),
-        sh_degree: 0,
-    };
+    let (_, kept) = opaque_dc_subset(g, opts.min_opacity);
     let mut out = LevelPoints::default();
     if kept.is_empty() {
         return Ok(out);

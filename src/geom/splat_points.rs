@@ -22,7 +22,7 @@ use splatkit_render::sh::sh_to_rgb;
 
 use splatkit_render::mesh as zbuffer;
 
-use crate::geom::levelset::{LevelPoints, back_project, diamonds};
+use crate::geom::levelset::{LevelPoints, back_project, diamonds, opaque_dc_subset};
 use crate::model::Camera;
 
 fn dc_only(g: &Gaussians3) -> Gaussians3 {
@@ -37,20 +37,7 @@ fn dc_only(g: &Gaussians3) -> Gaussians3 {
 /// Gaussian centres with opacity > `min_opacity` (see the module docs).
 pub fn centers(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> LevelPoints {
     let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
-    let keep: Vec<usize> = (0..g.len())
-        .filter(|&i| {
-            !(g.opacities[i].is_nan() || g.opacities[i] <= min_opacity)
-                && g.means[i].iter().all(|v| v.is_finite())
-        })
-        .collect();
-    let kept = Gaussians3 {
-        means: keep.iter().map(|&i| g.means[i]).collect(),
-        scales: keep.iter().map(|&i| g.scales[i]).collect(),
-        rotations: keep.iter().map(|&i| g.rotations[i]).collect(),
-        opacities: keep.iter().map(|&i| g.opacities[i]).collect(),
-        sh: keep.iter().map(|&i| g.sh[i * nc]).collect(),
-        sh_degree: 0,
-    };
+    let (keep, kept) = opaque_dc_subset(g, min_opacity);
     // the shortest axis of each kept Gaussian
     let axes: Vec<glam::DVec3> = (0..kept.len())
         .into_par_iter()

@@ -62,13 +62,13 @@ pub struct RgbImage {
     pub pixels: Vec<[f32; 3]>,
 }
 
-/// Reads a PNG (grey, grey+alpha, RGB or RGBA; 8 or 16 bits) as RGB floats;
-/// alpha is dropped, grey is replicated.
-pub fn read_png_rgb(path: &Path) -> Result<RgbImage> {
+/// Decodes the first frame of a PNG file with the given transformations:
+/// its frame info and samples. Errors name the file.
+pub fn decode_png(path: &Path, t: png::Transformations) -> Result<(png::OutputInfo, Vec<u8>)> {
     let name = path.display().to_string();
     let file = std::fs::File::open(path).map_err(|e| Error::io(&name, e))?;
     let mut dec = png::Decoder::new(std::io::BufReader::new(file));
-    dec.set_transformations(png::Transformations::EXPAND);
+    dec.set_transformations(t);
     let mut reader = dec
         .read_info()
         .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
@@ -79,6 +79,13 @@ pub fn read_png_rgb(path: &Path) -> Result<RgbImage> {
     let info = reader
         .next_frame(&mut buf)
         .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
+    Ok((info, buf))
+}
+
+/// Reads a PNG (grey, grey+alpha, RGB or RGBA; 8 or 16 bits) as RGB floats;
+/// alpha is dropped, grey is replicated.
+pub fn read_png_rgb(path: &Path) -> Result<RgbImage> {
+    let (info, buf) = decode_png(path, png::Transformations::EXPAND)?;
     let (w, h) = (info.width as usize, info.height as usize);
     let ch = info.color_type.samples();
     let sixteen = info.bit_depth == png::BitDepth::Sixteen;
