@@ -92,7 +92,8 @@ fn mesh_depth_is_exact() {
 
 /// `--compare` against the render's own PNG: the only difference is the
 /// 8-bit rounding (|e| ≤ 1/510), so PSNR ≥ 20·log10(510) ≈ 54.2 dB and
-/// SSIM ≈ 1; a missing ground-truth image is an error naming the file.
+/// SSIM ≈ 1 (the second render reads the cameras.json the first one wrote
+/// for its orbit); a missing ground-truth image is an error naming the file.
 #[test]
 fn compare_reports_psnr_and_ssim() {
     let Some(scene) =
@@ -117,19 +118,13 @@ fn compare_reports_psnr_and_ssim() {
         .arg(&out)
         .assert()
         .success();
+    // the orbit run left its views in a/cameras.json: rendering from that
+    // file must reproduce the same images
     let res = bin()
         .arg(&scene)
-        .args([
-            "--orbit",
-            "2",
-            "--size",
-            "96x72",
-            "--outputs",
-            "rgb",
-            "-q",
-            "--json",
-            "-o",
-        ])
+        .arg("--cameras")
+        .arg(out.join("cameras.json"))
+        .args(["--outputs", "rgb", "-q", "--json", "-o"])
         .arg(dir.path().join("b"))
         .arg("--compare")
         .arg(&out)

@@ -196,6 +196,129 @@ fn missing_inputs_are_named() {
         .stderr(predicates::str::contains("point_cloud"));
 }
 
+/// Bad input gets an error naming what is wrong and a non-zero exit: a PLY
+/// without Gaussian properties, levels outside (0, 1), cameras that see
+/// nothing of the scene, a camera file together with `--orbit`, a malformed
+/// `--size`.
+#[test]
+fn bad_input_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    model_folder(dir.path());
+    let scene = dir
+        .path()
+        .join("point_cloud/iteration_7000/point_cloud.ply");
+    let cams = dir.path().join("cameras.json");
+    // exit 1 for bad data, 2 for a bad argument (the CLI convention)
+    let fails_with = |code: i32, args: Vec<std::ffi::OsString>, expect: &str| {
+        let out = bin("splat2points").args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+        assert!(err.contains(expect), "{args:?}: {err:?} lacks {expect:?}");
+        assert!(out.stdout.is_empty(), "{args:?} wrote to stdout");
+    };
+    let fails = |args, expect: &str| fails_with(1, args, expect);
+    let os = |v: &[&str]| v.iter().map(std::ffi::OsString::from).collect::<Vec<_>>();
+    // a plain point cloud: no opacity / scales / rotations
+    let pts = dir.path().join("plain.ply");
+    std::fs::write(
+        &pts,
+        "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 1 1\n",
+    )
+    .unwrap();
+    let mut a = os(&["--cameras"]);
+    a.push(cams.clone().into());
+    a.insert(0, pts.clone().into());
+    fails(a, "plain.ply");
+    for level in ["0", "1", "1.5", "-0.2", "nan"] {
+        let mut a = vec![
+            scene.clone().into(),
+            "--cameras".into(),
+            cams.clone().into(),
+        ];
+        a.extend(os(&["--level", level]));
+        fails_with(2, a, "not in (0, 1)");
+    }
+    // the same orbit, but around a point 100 units away: nothing in view
+    let far: Vec<[f32; 3]> = T
+        .mesh(32, 12)
+        .vertices
+        .iter()
+        .map(|v| [v[0] + 100.0, v[1], v[2]])
+        .collect();
+    let away = orbit_cameras(&far, 8, 64, 64, 50.0, 35.0, Some(3.6), DVec3::Y).unwrap();
+    let away_path = dir.path().join("away.json");
+    splatkit::io::cameras::write_gs_json(&away_path, &away).unwrap();
+    for method in ["levelset", "centers", "depth"] {
+        let mut a = vec![
+            scene.clone().into(),
+            "--cameras".into(),
+            away_path.clone().into(),
+        ];
+        a.extend(os(&["--all-views", "--method", method]));
+        fails(a, "sees any of the");
+    }
+    let mut a = vec![dir.path().into()];
+    a.extend(os(&["--orbit", "4"]));
+    fails(a, "not both");
+    let mut a = vec![scene.clone().into()];
+    a.extend(os(&["--orbit", "4", "--size", "64by64"]));
+    fails(a, "--size");
+    let mut a = vec![
+        scene.clone().into(),
+        "--cameras".into(),
+        cams.clone().into(),
+    ];
+    a.extend(os(&["--level", "0.3,abc"]));
+    fails_with(2, a, "not a number");
+    let mut a = vec![scene.clone().into()];
+    a.extend(os(&["--level", "0.3"]));
+    fails(a, "--orbit N");
+}
+
+/// `--orbit` makes its own cameras (two rings here) when a scene comes
+/// without any; the points still lie on the torus (same 0.03 bound as the
+/// camera-file run above).
+#[test]
+fn orbit_cameras_without_a_camera_file() {
+    let dir = tempfile::tempdir().unwrap();
+    model_folder(dir.path());
+    let scene = dir
+        .path()
+        .join("point_cloud/iteration_7000/point_cloud.ply");
+    let json = dir.path().join("run.json");
+    let out = bin("splat2points")
+        .arg(&scene)
+        .args([
+            "--orbit",
+            "6",
+            "--elevation",
+            "35,-35",
+            "--up",
+            "0,1,0",
+            "--size",
+            "128x128",
+            "--max-points",
+            "20000",
+            "-q",
+        ])
+        .arg(format!("--json={}", json.display()))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(v["views"], 12, "two rings of six, none held out: {v}");
+    let pc = parse_points("pts", &out.stdout).unwrap();
+    assert!(pc.len() > 5000, "{} points", pc.len());
+    for p in &pc.positions {
+        let d = T.distance(p.map(f64::from));
+        assert!(d <= 0.03, "point {p:?} is {d} from the torus");
+    }
+}
+
 /// `scripts/sugar_mesh.sh` runs the whole recipe on a model folder (depth 7
 /// and 20k faces to stay quick) and leaves a mesh near the torus: with the
 /// 10% density trim and the fg/bg split the vertices stay within 0.03 on

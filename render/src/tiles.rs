@@ -52,14 +52,17 @@ impl TileLists {
             .par_iter()
             .map(|p| {
                 let [bx0, by0, bx1, by1] = bbox(p)?;
-                if !(bx1 >= 0.0 && by1 >= 0.0 && bx0 <= w as f32 && by0 <= h as f32) {
+                // a box starting at x = w (or y = h) touches no pixel; NaN
+                // fails every comparison and is skipped too
+                if !(bx1 >= 0.0 && by1 >= 0.0 && bx0 < w as f32 && by0 < h as f32) {
                     return None;
                 }
                 let x0 = (bx0.floor().max(0.0) as usize) / TILE;
                 let y0 = (by0.floor().max(0.0) as usize) / TILE;
                 let x1 = ((bx1.ceil() as usize) / TILE).min(tw - 1);
                 let y1 = ((by1.ceil() as usize) / TILE).min(th - 1);
-                Some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
+                // an inverted box (x0 > x1) covers nothing
+                (x0 <= x1 && y0 <= y1).then_some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
             })
             .collect();
         // order-preserving map of f32 bits to u32 (a total order)
@@ -292,5 +295,27 @@ mod tests {
         assert_eq!(sums[0][0], 1.0 + 2.0);
         assert_eq!(sums[3][0], 0.0);
         assert_eq!(sums[4][0], 2.0 + 3.0 + 5.0 + 6.0 + 8.0 + 9.0);
+    }
+
+    /// Boxes that touch no pixel are skipped, not counted: one starting
+    /// exactly at the right or bottom edge of a 32×32 image (whose tile
+    /// count divides evenly, the case that once underflowed), an inverted
+    /// box, and NaN corners.
+    #[test]
+    fn edge_inverted_and_nan_boxes() {
+        let items = [
+            [32.0f32, 0.0, 40.0, 8.0],
+            [0.0, 32.0, 8.0, 40.0],
+            [20.0, 20.0, 3.0, 25.0],
+            [f32::NAN, 0.0, 5.0, 5.0],
+            [0.0, 0.0, f32::NAN, 5.0],
+            [31.5, 31.5, 32.0, 32.0],
+        ];
+        let tl = TileLists::build(&items, |p| Some(*p), |_| 1.0, 32, 32);
+        assert_eq!(tl.len(), 4);
+        for t in 0..3 {
+            assert!(tl.list(t).is_empty(), "tile {t}: {:?}", tl.list(t));
+        }
+        assert_eq!(tl.list(3), &[5], "only the last pixel's box is binned");
     }
 }

@@ -38,6 +38,77 @@ pub enum DepthKind {
     Expected,
 }
 
+/// Orbit cameras made up when a scene comes without a camera file: `N`
+/// views per ring evenly spaced in azimuth around the centre of the scene's
+/// central 96% box, one ring per elevation, looking at that centre.
+#[derive(Args, Debug, Clone)]
+pub struct OrbitArgs {
+    /// Orbit views per ring when no camera file is given (render: 8).
+    #[arg(long)]
+    pub orbit: Option<usize>,
+    /// Orbit image size WIDTHxHEIGHT.
+    #[arg(long, default_value = "800x600")]
+    pub size: String,
+    /// Orbit horizontal field of view, degrees.
+    #[arg(long, default_value_t = 50.0)]
+    pub fov: f64,
+    /// Orbit elevations above the horizon, degrees, comma-separated: one
+    /// ring of `--orbit` views each.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "15",
+        allow_hyphen_values = true
+    )]
+    pub elevation: Vec<f64>,
+    /// Orbit distance from the scene centre (default: the scene's central
+    /// 96% box fills the view).
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// World up direction for the orbit (COLMAP-trained scenes: 0,-1,0).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0,-1,0",
+        allow_hyphen_values = true
+    )]
+    pub up: Vec<f64>,
+}
+
+impl OrbitArgs {
+    /// The orbit cameras around `points` with `n` views per ring; rings after
+    /// the first get names `orbit_r{ring}_{i}` so names stay unique.
+    pub fn cameras(&self, points: &[[f32; 3]], n: usize) -> anyhow::Result<Vec<Camera>> {
+        let (w, h) = self
+            .size
+            .split_once('x')
+            .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
+            .filter(|&(w, h)| w > 0 && h > 0 && (w as u64) * (h as u64) <= 1 << 28)
+            .with_context(|| format!("--size {:?}: expected WIDTHxHEIGHT", self.size))?;
+        if n == 0 {
+            bail!("--orbit must be at least 1 (or give --cameras)");
+        }
+        if self.up.len() != 3 {
+            bail!("--up takes three numbers x,y,z");
+        }
+        if self.elevation.is_empty() || self.elevation.iter().any(|e| !(e.abs() < 90.0)) {
+            bail!("--elevation takes angles in (-90, 90) degrees");
+        }
+        let up = DVec3::new(self.up[0], self.up[1], self.up[2]);
+        let mut cams = Vec::with_capacity(n * self.elevation.len());
+        for (ring, &el) in self.elevation.iter().enumerate() {
+            let mut ring_cams = orbit_cameras(points, n, w, h, self.fov, el, self.radius, up)?;
+            if ring > 0 {
+                for (i, c) in ring_cams.iter_mut().enumerate() {
+                    c.name = format!("orbit_r{ring}_{i:03}");
+                }
+            }
+            cams.extend(ring_cams);
+        }
+        Ok(cams)
+    }
+}
+
 /// Arguments of `render`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
@@ -50,7 +121,8 @@ pub struct RenderArgs {
     /// mesh (PLY, OBJ, OFF, glTF/GLB).
     pub scene: PathBuf,
     /// Camera file or folder (COLMAP, cameras.json, transforms.json,
-    /// cameras.npz). Without it, `--orbit` cameras are used.
+    /// cameras.npz). Without it, `--orbit` cameras are used and written to
+    /// `DIR/cameras.json`.
     #[arg(long)]
     pub cameras: Option<PathBuf>,
     /// Output folder (created if missing).
@@ -71,30 +143,8 @@ pub struct RenderArgs {
     /// Near plane (camera z) for splats and meshes.
     #[arg(long, default_value_t = 0.2)]
     pub near: f64,
-    /// Number of orbit cameras when no camera file is given.
-    #[arg(long, default_value_t = 8)]
-    pub orbit: usize,
-    /// Orbit image size WIDTHxHEIGHT.
-    #[arg(long, default_value = "800x600")]
-    pub size: String,
-    /// Orbit horizontal field of view, degrees.
-    #[arg(long, default_value_t = 50.0)]
-    pub fov: f64,
-    /// Orbit elevation above the horizon, degrees.
-    #[arg(long, default_value_t = 15.0)]
-    pub elevation: f64,
-    /// Orbit distance from the scene centre (default: the scene's central
-    /// 96% box fills the view).
-    #[arg(long)]
-    pub radius: Option<f64>,
-    /// World up direction for the orbit (COLMAP-trained scenes: 0,-1,0).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "0,-1,0",
-        allow_hyphen_values = true
-    )]
-    pub up: Vec<f64>,
+    #[command(flatten)]
+    pub orbit: OrbitArgs,
     /// Folder of ground-truth PNGs named after the cameras: report PSNR and
     /// SSIM of each colour render against them.
     #[arg(long)]
@@ -407,9 +457,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.background.len() != 3 || args.background.iter().any(|v| !v.is_finite()) {
         bail!("--background takes three numbers r,g,b");
     }
-    if args.up.len() != 3 {
-        bail!("--up takes three numbers x,y,z");
-    }
     if !(args.depth_scale > 0.0 && args.depth_scale.is_finite()) {
         bail!("--depth-scale must be positive");
     }
@@ -418,28 +465,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
     let cams = match &args.cameras {
         Some(p) => read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?,
-        None => {
-            let (w, h) = args
-                .size
-                .split_once('x')
-                .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
-                .filter(|&(w, h)| w > 0 && h > 0 && (w as u64) * (h as u64) <= 1 << 28)
-                .with_context(|| format!("--size {:?}: expected WIDTHxHEIGHT", args.size))?;
-            if args.orbit == 0 {
-                bail!("--orbit must be at least 1 (or give --cameras)");
-            }
-            let up = DVec3::new(args.up[0], args.up[1], args.up[2]);
-            orbit_cameras(
-                &scene.points(),
-                args.orbit,
-                w,
-                h,
-                args.fov,
-                args.elevation,
-                args.radius,
-                up,
-            )?
-        }
+        None => args
+            .orbit
+            .cameras(&scene.points(), args.orbit.orbit.unwrap_or(8))?,
     };
     for c in &cams {
         c.require_pinhole()
@@ -447,6 +475,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
+    if args.cameras.is_none() {
+        // keep the made-up views so other scenes can be rendered from them
+        crate::io::cameras::write_gs_json(&args.output.join("cameras.json"), &cams)?;
+    }
     let s = RasterSettings {
         background: [args.background[0], args.background[1], args.background[2]],
         near: args.near,

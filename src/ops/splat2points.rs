@@ -15,6 +15,8 @@ use crate::io::cameras::read_cameras;
 use crate::io::ply::{Format, points::write_points};
 use crate::io::{ply, read_input, write_output};
 use crate::model::{Camera, Column, PointCloud, Property, ScalarData};
+use crate::ops::render::OrbitArgs;
+use splatkit_render::gaussian::Gaussians3;
 
 /// How points are made.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -42,12 +44,14 @@ pub enum DepthArg {
   splat2points output/garden/ -o points.ply                 # 3DGS model folder: latest iteration, cameras.json
   splat2points scene.ply --cameras sparse/0 --level 0.1,0.3,0.5 --provenance -o points.ply
   splat2points scene.ply --cameras cameras.json | poisson - --depth 10 -o mesh.ply
-  splat2points scene.ply --cameras cameras.json --method centers -o centres.ply")]
+  splat2points scene.ply --cameras cameras.json --method centers -o centres.ply
+  splat2points biker.ply --orbit 24 --elevation 30,-20 --size 1024x768 -o points.ply   # no cameras: orbit")]
 pub struct Splat2PointsArgs {
     /// A 3DGS Gaussian PLY, or a 3DGS model folder (uses
     /// `point_cloud/iteration_*/point_cloud.ply` and `cameras.json`).
     pub scene: PathBuf,
-    /// Camera file or folder (default: `cameras.json` of a model folder).
+    /// Camera file or folder (default: `cameras.json` of a model folder, or
+    /// `--orbit` cameras).
     #[arg(long)]
     pub cameras: Option<PathBuf>,
     /// Output PLY; `-` = stdout.
@@ -56,7 +60,13 @@ pub struct Splat2PointsArgs {
     #[arg(long, value_enum, default_value = "levelset")]
     pub method: Method,
     /// Density levels λ (comma-separated; each gives its own points).
-    #[arg(long, value_delimiter = ',', default_value = "0.3")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.3",
+        allow_hyphen_values = true,
+        value_parser = parse_level
+    )]
     pub level: Vec<f32>,
     /// Depth used to find the surface along each ray (levelset).
     #[arg(long, value_enum, default_value = "diamonds")]
@@ -86,8 +96,26 @@ pub struct Splat2PointsArgs {
     /// Near plane of the renders.
     #[arg(long, default_value_t = 0.2)]
     pub near: f64,
+    /// Cameras made up around the scene instead of a camera file
+    /// (`--orbit N`; no views are held out).
+    #[command(flatten)]
+    pub orbit: OrbitArgs,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// A density level λ: a number strictly between 0 and 1 (the density is
+/// clamped to [0, 1], so 0 and 1 have no crossing).
+fn parse_level(s: &str) -> Result<f32, String> {
+    let l: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if l > 0.0 && l < 1.0 {
+        Ok(l)
+    } else {
+        Err(format!("level {s} is not in (0, 1)"))
+    }
 }
 
 /// The Gaussian PLY and camera file of a 3DGS model folder.
@@ -167,6 +195,29 @@ pub fn to_point_cloud(p: LevelPoints, provenance: bool) -> PointCloud {
     pc
 }
 
+/// How many Gaussians with opacity above `min_opacity` have their centre
+/// inside the image of at least one camera, in front of its near plane.
+pub fn seen_by_any(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> usize {
+    use rayon::prelude::*;
+    (0..g.len())
+        .into_par_iter()
+        .filter(|&i| g.opacities[i] > min_opacity)
+        .filter(|&i| {
+            let m = g.means[i];
+            let p = glam::DVec3::new(m[0] as f64, m[1] as f64, m[2] as f64);
+            cams.iter().any(|c| {
+                c.project(p).is_some_and(|(px, z)| {
+                    z > near
+                        && px.x >= 0.0
+                        && px.y >= 0.0
+                        && px.x < c.width as f64
+                        && px.y < c.height as f64
+                })
+            })
+        })
+        .count()
+}
+
 /// `splat2points` entry point.
 pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     args.common.init()?;
@@ -179,32 +230,64 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     } else {
         (args.scene.clone(), None)
     };
-    let cam_path = args
-        .cameras
-        .clone()
-        .or(default_cams)
-        .context("give --cameras (or a 3DGS model folder holding cameras.json)")?;
+    let cam_path = args.cameras.clone().or(default_cams);
+    if cam_path.is_some() && args.orbit.orbit.is_some() {
+        bail!("give either a camera file (--cameras or a model folder) or --orbit, not both");
+    }
     let input = read_input(&scene)?;
     let g = ply::gaussians::parse_gaussians(&input.name, &input)
         .with_context(|| format!("reading {}", shown(&scene, false)))?
         .to_raster();
-    let all = read_cameras(&cam_path)
-        .with_context(|| format!("reading cameras {}", cam_path.display()))?;
-    let n_all = all.len();
-    let cams = training_views(
-        all,
-        if args.all_views {
-            0
-        } else {
-            args.every_nth_test
-        },
-    );
+    let (cams, n_all, cam_source) = match (&cam_path, args.orbit.orbit) {
+        (Some(p), _) => {
+            let all =
+                read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?;
+            let n_all = all.len();
+            let keep = training_views(
+                all,
+                if args.all_views {
+                    0
+                } else {
+                    args.every_nth_test
+                },
+            );
+            (keep, n_all, p.display().to_string())
+        }
+        (None, Some(n)) => {
+            let cams = args.orbit.cameras(&g.means, n)?;
+            let n_all = cams.len();
+            (cams, n_all, format!("orbit ({n_all} views)"))
+        }
+        (None, None) => bail!(
+            "give --cameras, a 3DGS model folder holding cameras.json, or --orbit N for made-up views"
+        ),
+    };
     if cams.is_empty() {
         bail!("no cameras left after holding out test views (use --all-views)");
     }
     for c in &cams {
         c.require_pinhole()
             .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
+    }
+    // nothing to sample from: say why before any work
+    let opaque = g
+        .opacities
+        .iter()
+        .filter(|&&o| o > args.min_opacity)
+        .count();
+    if opaque == 0 {
+        bail!(
+            "none of the {} Gaussians has opacity above --min-opacity {}",
+            g.len(),
+            args.min_opacity
+        );
+    }
+    if seen_by_any(&g, &cams, args.min_opacity, args.near) == 0 {
+        bail!(
+            "none of the {} cameras ({cam_source}) sees any of the {opaque} opaque Gaussians \
+             (check that the cameras belong to this scene: axes, units, world up)",
+            cams.len()
+        );
     }
     let pb = args.common.progress(cams.len() as u64, "views");
     let points = match args.method {
@@ -231,8 +314,9 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     pb.finish_and_clear();
     let n = points.positions.len();
     if n == 0 {
-        eprintln!(
-            "warning: no points were produced (no level crossing seen; check --level, --min-opacity and the cameras)"
+        bail!(
+            "no points: no ray crossed the level(s) {:?} (try a lower --level or --depth gaussian)",
+            args.level
         );
     }
     let pc = to_point_cloud(points, args.provenance);
@@ -248,7 +332,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     ));
     args.common.emit_json(&json!({
         "scene": shown(&scene, false),
-        "cameras": cam_path.display().to_string(),
+        "cameras": cam_source,
         "views": cams.len(),
         "views_total": n_all,
         "gaussians": g.len(),
