@@ -91,7 +91,8 @@ impl OrbitArgs {
         if self.up.len() != 3 {
             bail!("--up takes three numbers x,y,z");
         }
-        if self.elevation.is_empty() || self.elevation.iter().any(|e| !(e.abs() < 90.0)) {
+        if self.elevation.is_empty() || self.elevation.iter().any(|e| e.is_nan() || e.abs() >= 90.0)
+        {
             bail!("--elevation takes angles in (-90, 90) degrees");
         }
         let up = DVec3::new(self.up[0], self.up[1], self.up[2]);
