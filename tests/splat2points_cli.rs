@@ -228,7 +228,10 @@ fn bad_input_is_an_error() {
     let mut a = os(&["--cameras"]);
     a.push(cams.clone().into());
     a.insert(0, pts.clone().into());
-    fails(a, "plain.ply");
+    fails(
+        a,
+        "plain.ply: element 'vertex' is not a 3DGS Gaussian layout: missing properties",
+    );
     for level in ["0", "1", "1.5", "-0.2", "nan"] {
         let mut a = vec![
             scene.clone().into(),

@@ -400,7 +400,8 @@ pub fn sample_levelset(
             pool.swap(k, j);
         }
         pool.truncate(take);
-        let rgb = gaussian::render(&kept, cam, &colour_settings).rgb;
+        // DC colour at the chosen pixels only (same values as a full render)
+        let rgb = gaussian::render_pixels(&kept, cam, &colour_settings, &pool);
         let eye = cam.center();
         let eye = [eye.x, eye.y, eye.z];
         // per ray: the crossing for each level
@@ -455,7 +456,7 @@ pub fn sample_levelset(
                 let Some((x, nrm)) = r[li] else {
                     continue;
                 };
-                let c = rgb[pool[ri] as usize];
+                let c = rgb[ri];
                 out.positions.push(x.map(|v| v as f32));
                 out.normals.push(nrm.map(|v| v as f32));
                 out.colors
