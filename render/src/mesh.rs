@@ -225,7 +225,7 @@ fn facing_normal(v: &[V3; 3], d: V3) -> V3 {
 /// Ray from the camera centre along `d` (d.z = 1) against triangle `v`
 /// (camera space, Möller–Trumbore): camera z of the hit and barycentrics
 /// (u, v) of vertices 1 and 2. Degenerate (zero-area) triangles never hit.
-fn intersect(v: &[V3; 3], d: V3) -> Option<(f64, f64, f64)> {
+pub fn intersect(v: &[V3; 3], d: V3) -> Option<(f64, f64, f64)> {
     let e1 = sub(v[1], v[0]);
     let e2 = sub(v[2], v[0]);
     let p = cross(d, e2);

@@ -30,8 +30,8 @@
 use rand::{RngExt, SeedableRng};
 use rayon::prelude::*;
 use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
-use splatkit_render::mesh as zbuffer;
 
+use crate::geom::diamond_zbuffer::diamond_zbuffer;
 use crate::geom::knn::NnIndex;
 use crate::model::Camera;
 use crate::{Error, Result};
@@ -226,46 +226,54 @@ impl Density {
     }
 }
 
-/// The camera-facing diamonds of `g` seen from `cam`: 4 vertices and 2
-/// faces per Gaussian (faces 2i and 2i+1 belong to Gaussian i); Gaussians
-/// behind the camera get degenerate faces that are never hit.
+/// The four corners of Gaussian `i`'s camera-facing diamond seen from the
+/// camera centre `c`: ±2σ along its two largest axes, each slid along its
+/// camera ray onto the plane through μ perpendicular to the view direction,
+/// in the order (+a1, +a2, −a1, −a2). All corners are NaN when μ is at the
+/// camera, and a corner that falls behind it is NaN (its faces never hit).
+pub fn diamond_corners(g: &Gaussians3, i: usize, c: [f64; 3]) -> [[f32; 3]; 4] {
+    let (r, s) = frame(g, i);
+    let mu = g.means[i].map(f64::from);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
+    let (k1, k2) = (order[0], order[1]);
+    let axis = |k: usize| [r[0][k], r[1][k], r[2][k]];
+    let (a1, a2) = (axis(k1), axis(k2));
+    let to = [mu[0] - c[0], mu[1] - c[1], mu[2] - c[2]];
+    let dist = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+    if dist.is_nan() || dist == 0.0 {
+        return [[f32::NAN; 3]; 4];
+    }
+    let dh = to.map(|v| v / dist);
+    let corner = |a: [f64; 3], t: f64| -> [f32; 3] {
+        let v = [mu[0] + t * a[0], mu[1] + t * a[1], mu[2] + t * a[2]];
+        // slide along the camera ray onto the plane through μ ⟂ dh
+        let rel = [v[0] - c[0], v[1] - c[1], v[2] - c[2]];
+        let along = rel[0] * dh[0] + rel[1] * dh[1] + rel[2] * dh[2];
+        if along <= 0.0 {
+            return [f32::NAN; 3];
+        }
+        let f = dist / along;
+        [0, 1, 2].map(|k| (c[k] + rel[k] * f) as f32)
+    };
+    [
+        corner(a1, 2.0 * s[k1]),
+        corner(a2, 2.0 * s[k2]),
+        corner(a1, -2.0 * s[k1]),
+        corner(a2, -2.0 * s[k2]),
+    ]
+}
+
+/// The camera-facing diamonds of `g` seen from `cam` as a mesh: 4 vertices
+/// and 2 faces per Gaussian (faces 2i and 2i+1 belong to Gaussian i, split
+/// along the +a1/−a1 diagonal); Gaussians behind the camera get NaN
+/// vertices, whose faces are never hit.
 pub fn diamonds(g: &Gaussians3, cam: &Camera) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let c = cam.center();
     let c = [c.x, c.y, c.z];
     let quads: Vec<[[f32; 3]; 4]> = (0..g.len())
         .into_par_iter()
-        .map(|i| {
-            let (r, s) = frame(g, i);
-            let mu = g.means[i].map(f64::from);
-            let mut order = [0usize, 1, 2];
-            order.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
-            let (k1, k2) = (order[0], order[1]);
-            let axis = |k: usize| [r[0][k], r[1][k], r[2][k]];
-            let (a1, a2) = (axis(k1), axis(k2));
-            let to = [mu[0] - c[0], mu[1] - c[1], mu[2] - c[2]];
-            let dist = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
-            if dist.is_nan() || dist == 0.0 {
-                return [[f32::NAN; 3]; 4];
-            }
-            let dh = to.map(|v| v / dist);
-            let corner = |a: [f64; 3], t: f64| -> [f32; 3] {
-                let v = [mu[0] + t * a[0], mu[1] + t * a[1], mu[2] + t * a[2]];
-                // slide along the camera ray onto the plane through μ ⟂ dh
-                let rel = [v[0] - c[0], v[1] - c[1], v[2] - c[2]];
-                let along = rel[0] * dh[0] + rel[1] * dh[1] + rel[2] * dh[2];
-                if along <= 0.0 {
-                    return [f32::NAN; 3];
-                }
-                let f = dist / along;
-                [0, 1, 2].map(|k| (c[k] + rel[k] * f) as f32)
-            };
-            [
-                corner(a1, 2.0 * s[k1]),
-                corner(a2, 2.0 * s[k2]),
-                corner(a1, -2.0 * s[k1]),
-                corner(a2, -2.0 * s[k2]),
-            ]
-        })
+        .map(|i| diamond_corners(g, i, c))
         .collect();
     let mut pos = Vec::with_capacity(4 * quads.len());
     let mut faces = Vec::with_capacity(2 * quads.len());
@@ -286,15 +294,10 @@ fn depth_and_hits(
     centres: &NnIndex,
 ) -> Vec<Option<(f64, usize)>> {
     match opts.depth {
-        DepthSource::Diamonds => {
-            let (pos, faces) = diamonds(g, cam);
-            let z = zbuffer::render(&pos, &faces, cam, opts.near);
-            z.face
-                .iter()
-                .zip(&z.depth)
-                .map(|(&f, &d)| (f != zbuffer::NO_FACE).then_some((d as f64, f as usize / 2)))
-                .collect()
-        }
+        DepthSource::Diamonds => diamond_zbuffer(g, cam, opts.near)
+            .into_iter()
+            .map(|hit| hit.map(|(d, i)| (d as f64, i as usize)))
+            .collect(),
         DepthSource::Median => {
             let s = RasterSettings {
                 background: [0.0; 3],

@@ -3,6 +3,7 @@
 pub mod clean;
 pub mod crop;
 pub mod decimate;
+pub mod diamond_zbuffer;
 pub mod downsample;
 pub mod knn;
 pub mod levelset;

@@ -20,9 +20,8 @@ use rayon::prelude::*;
 use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 use splatkit_render::sh::sh_to_rgb;
 
-use splatkit_render::mesh as zbuffer;
-
-use crate::geom::levelset::{LevelPoints, back_project, diamonds, opaque_dc_subset};
+use crate::geom::diamond_zbuffer::diamond_zbuffer;
+use crate::geom::levelset::{LevelPoints, back_project, opaque_dc_subset};
 use crate::model::Camera;
 
 fn dc_only(g: &Gaussians3) -> Gaussians3 {
@@ -60,8 +59,7 @@ pub fn centers(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> 
     let mut seen = vec![0i64; kept.len()];
     let mut in_view = vec![0i64; kept.len()];
     for cam in cams {
-        let (pos, faces) = diamonds(&kept, cam);
-        let z = zbuffer::render(&pos, &faces, cam, near);
+        let z = diamond_zbuffer(&kept, cam, near);
         let w = cam.width as usize;
         let votes: Vec<(i64, i64)> = (0..kept.len())
             .into_par_iter()
@@ -86,7 +84,7 @@ pub fn centers(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> 
                 let o = px.y as usize * w + px.x as usize;
                 // nothing in front of it beyond its own diamond's reach
                 let reach = 2.0 * kept.scales[i].iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
-                let visible = z.face[o] != zbuffer::NO_FACE && z.depth[o] as f64 >= d - reach;
+                let visible = z[o].is_some_and(|(depth, _)| depth as f64 >= d - reach);
                 (if visible { sign } else { 0 }, sign)
             })
             .collect();
