@@ -164,14 +164,15 @@ mod tests {
         let want = zbuffer::render(&pos, &faces, &cam, near);
         let mut differ = 0;
         let mut hit = 0;
-        for o in 0..90 * 70 {
+        assert_eq!(got.len(), 90 * 70);
+        for (o, &g) in got.iter().enumerate() {
             let w = (want.face[o] != zbuffer::NO_FACE).then(|| (want.depth[o], want.face[o] / 2));
             if w.is_some() {
                 hit += 1;
             }
-            if got[o] != w {
+            if g != w {
                 // only an f32 tie may differ: same depth, other Gaussian
-                let (a, b) = (got[o].expect("hit"), w.expect("hit"));
+                let (a, b) = (g.expect("hit"), w.expect("hit"));
                 assert_eq!(a.0, b.0, "pixel {o}: {a:?} vs {b:?}");
                 differ += 1;
             }
