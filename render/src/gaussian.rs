@@ -33,7 +33,7 @@ use crate::dual::{Real, dot3, sh_rgb};
 use crate::sh::coeff_count;
 
 pub use crate::tiles::TILE;
-use crate::tiles::{TileLists, render_tiles, tile_pixels};
+use crate::tiles::{TileLists, depth_key, render_tiles, tile_pixels, tile_rect};
 
 /// Gaussians as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -484,9 +484,12 @@ fn render_tile(
 
 /// The colour (with the background blended in) of only the given pixels
 /// (row-major offsets `y·width + x`), equal bit for bit to what [`render`]
-/// gives at them: each pixel walks its tile's front-to-back list with the
-/// same f32 operations and the same early stop. Cheaper than a full render
-/// when few pixels are wanted (projection and binning remain).
+/// gives at them. Instead of binning the whole scene into tiles, each
+/// projected Gaussian is matched against the wanted pixels of the tiles its
+/// box touches (the same tiles and the same pixel box test as the tile
+/// lists); each pixel then sorts its own few Gaussians by the tile lists'
+/// key (depth, then index) and blends them front to back with the same f32
+/// operations and the same early stop. Cheap when few pixels are wanted.
 pub fn render_pixels(
     g: &Gaussians3,
     cam: &Camera,
@@ -503,40 +506,92 @@ pub fn render_pixels(
         .into_par_iter()
         .filter_map(|i| project_with(g, i, cam, &rows, s))
         .collect();
-    let tiles = TileLists::build(
-        &proj,
-        |p| {
-            let (rx, ry) = (p.radius.min(p.ext[0]), p.radius.min(p.ext[1]));
-            Some([p.xy[0] - rx, p.xy[1] - ry, p.xy[0] + rx, p.xy[1] + ry])
-        },
-        |p| p.depth,
-        w,
-        h,
-    );
-    pixels
+    // the wanted pixels of each tile, as indices into `pixels` (CSR)
+    let nt = tw * th;
+    let tile_of = |o: usize| (o / w < h).then(|| (o / w / TILE) * tw + (o % w) / TILE);
+    let mut start = vec![0usize; nt + 1];
+    for &o in pixels {
+        if let Some(t) = tile_of(o as usize) {
+            start[t + 1] += 1;
+        }
+    }
+    for t in 0..nt {
+        start[t + 1] += start[t];
+    }
+    let mut at = start.clone();
+    let mut slots = vec![0u32; start[nt]];
+    for (k, &o) in pixels.iter().enumerate() {
+        if let Some(t) = tile_of(o as usize) {
+            slots[at[t]] = k as u32;
+            at[t] += 1;
+        }
+    }
+    // (wanted pixel, sort key) for every Gaussian that reaches it
+    let pairs: Vec<(u32, u64)> = proj
         .par_iter()
-        .map(|&o| {
-            let o = o as usize;
-            let (x, y) = (o % w, o / w);
-            if y >= h {
-                return s.background;
-            }
-            let (tx, ty) = (x / TILE, y / TILE);
-            let (py, px) = (y as f32 + 0.5, x as f32 + 0.5);
-            let (mut t, mut c) = (1.0f32, [0.0f32; 3]);
-            for &pi in tiles.list(ty * tw + tx) {
-                let p = &proj[pi as usize];
-                // the pixel lies in `pixel_span`'s box: for an integer x,
-                // x ≥ ceil(v) ⟺ x ≥ v and x ≤ floor(v) ⟺ x ≤ v, with v the
-                // same f32 expressions
-                let (fx, fy) = (x as f32, y as f32);
-                if !(fx >= p.xy[0] - p.ext[0] - 0.5
-                    && fx <= p.xy[0] + p.ext[0] - 0.5
-                    && fy >= p.xy[1] - p.ext[1] - 0.5
-                    && fy <= p.xy[1] + p.ext[1] - 0.5)
-                {
-                    continue;
+        .enumerate()
+        .fold(Vec::new, |mut acc, (pi, p)| {
+            let (rx, ry) = (p.radius.min(p.ext[0]), p.radius.min(p.ext[1]));
+            let Some([tx0, ty0, tx1, ty1]) = tile_rect(
+                [p.xy[0] - rx, p.xy[1] - ry, p.xy[0] + rx, p.xy[1] + ry],
+                w,
+                h,
+            ) else {
+                return acc;
+            };
+            let key = ((depth_key(p.depth) as u64) << 32) | pi as u64;
+            for ty in ty0 as usize..=ty1 as usize {
+                for tx in tx0 as usize..=tx1 as usize {
+                    let t = ty * tw + tx;
+                    for &k in &slots[start[t]..start[t + 1]] {
+                        let o = pixels[k as usize] as usize;
+                        if in_ext_box(p, o % w, o / w) {
+                            acc.push((k, key));
+                        }
+                    }
                 }
+            }
+            acc
+        })
+        .reduce(Vec::new, |mut a, mut b| {
+            if a.len() < b.len() {
+                std::mem::swap(&mut a, &mut b);
+            }
+            a.extend(b);
+            a
+        });
+    // group by pixel (counting sort), then sort each pixel's keys
+    let mut off = vec![0usize; pixels.len() + 1];
+    for &(k, _) in &pairs {
+        off[k as usize + 1] += 1;
+    }
+    for k in 0..pixels.len() {
+        off[k + 1] += off[k];
+    }
+    let mut fill = off.clone();
+    let mut keys = vec![0u64; pairs.len()];
+    for &(k, key) in &pairs {
+        keys[fill[k as usize]] = key;
+        fill[k as usize] += 1;
+    }
+    drop(pairs);
+    let mut lists: Vec<&mut [u64]> = Vec::with_capacity(pixels.len());
+    let mut rest = &mut keys[..];
+    for k in 0..pixels.len() {
+        let (head, tail) = rest.split_at_mut(off[k + 1] - off[k]);
+        lists.push(head);
+        rest = tail;
+    }
+    lists
+        .into_par_iter()
+        .enumerate()
+        .map(|(k, list)| {
+            list.sort_unstable();
+            let o = pixels[k] as usize;
+            let (px, py) = ((o % w) as f32 + 0.5, (o / w) as f32 + 0.5);
+            let (mut t, mut c) = (1.0f32, [0.0f32; 3]);
+            for &key in list.iter() {
+                let p = &proj[(key & 0xffff_ffff) as usize];
                 let Some(alpha) = alpha_at(p, p.xy[0] - px, p.xy[1] - py) else {
                     continue;
                 };
@@ -553,6 +608,18 @@ pub fn render_pixels(
             std::array::from_fn(|k| c[k] + t * s.background[k])
         })
         .collect()
+}
+
+/// Whether pixel (x, y) lies in the box [`pixel_span`] gives for `p`: for
+/// an integer x, x ≥ ceil(v) ⟺ x ≥ v and x ≤ floor(v) ⟺ x ≤ v, with v the
+/// same f32 expressions.
+#[inline]
+fn in_ext_box(p: &Projected, x: usize, y: usize) -> bool {
+    let (fx, fy) = (x as f32, y as f32);
+    fx >= p.xy[0] - p.ext[0] - 0.5
+        && fx <= p.xy[0] + p.ext[0] - 0.5
+        && fy >= p.xy[1] - p.ext[1] - 0.5
+        && fy <= p.xy[1] + p.ext[1] - 0.5
 }
 
 /// What the forward pass keeps for the backward pass: the projected
@@ -801,10 +868,12 @@ mod tests {
             near: s.near,
         };
         let full = render(&g, &cam, &s2).rgb;
-        let order: Vec<u32> = (0..80 * 56).rev().step_by(3).collect();
+        let mut order: Vec<u32> = (0..80 * 56).rev().step_by(3).collect();
+        order.extend([order[7], order[7], 80 * 56 + 3]); // repeats, one past the image
         let part = render_pixels(&g, &cam, &s2, &order);
         for (k, &o) in order.iter().enumerate() {
-            assert_eq!(part[k], full[o as usize], "pixel {o}");
+            let want = full.get(o as usize).copied().unwrap_or(s2.background);
+            assert_eq!(part[k], want, "pixel {o}");
         }
         let rows = rotation_rows(&cam);
         let mut proj: Vec<Projected> = (0..g.len())

@@ -226,30 +226,64 @@ fn facing_normal(v: &[V3; 3], d: V3) -> V3 {
 /// (camera space, Möller–Trumbore): camera z of the hit and barycentrics
 /// (u, v) of vertices 1 and 2. Degenerate (zero-area) triangles never hit.
 pub fn intersect(v: &[V3; 3], d: V3) -> Option<(f64, f64, f64)> {
-    let e1 = sub(v[1], v[0]);
-    let e2 = sub(v[2], v[0]);
-    let p = cross(d, e2);
-    let det = dot(e1, p);
-    if det.abs() < 1e-300 {
-        return None;
+    RayTriangle::new(v).hit(d)
+}
+
+/// A triangle (camera space) prepared for many rays from the camera centre:
+/// the parts of Möller–Trumbore that do not depend on the ray are computed
+/// once, with the same operations, so [`RayTriangle::hit`] gives exactly
+/// what [`intersect`] gives.
+#[derive(Clone, Copy, Debug)]
+pub struct RayTriangle {
+    e1: V3,
+    e2: V3,
+    s: V3,
+    q: V3,
+    e2q: f64,
+    degenerate: bool,
+}
+
+impl RayTriangle {
+    pub fn new(v: &[V3; 3]) -> RayTriangle {
+        let e1 = sub(v[1], v[0]);
+        let e2 = sub(v[2], v[0]);
+        let s = [-v[0][0], -v[0][1], -v[0][2]];
+        let q = cross(s, e1);
+        let n = cross(e1, e2);
+        RayTriangle {
+            e1,
+            e2,
+            s,
+            q,
+            e2q: dot(e2, q),
+            degenerate: dot(n, n) == 0.0,
+        }
     }
-    let inv = 1.0 / det;
-    let s = [-v[0][0], -v[0][1], -v[0][2]];
-    let u = dot(s, p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
+
+    /// Camera z and barycentrics (u, v) of the hit of the ray along `d`
+    /// (d.z = 1), `None` when it misses.
+    #[inline]
+    pub fn hit(&self, d: V3) -> Option<(f64, f64, f64)> {
+        let p = cross(d, self.e2);
+        let det = dot(self.e1, p);
+        if det.abs() < 1e-300 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let u = dot(self.s, p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let vv = dot(d, self.q) * inv;
+        if vv < 0.0 || u + vv > 1.0 {
+            return None;
+        }
+        let t = self.e2q * inv; // d.z = 1, so t is the camera z
+        if self.degenerate {
+            return None;
+        }
+        Some((t, u, vv))
     }
-    let q = cross(s, e1);
-    let vv = dot(d, q) * inv;
-    if vv < 0.0 || u + vv > 1.0 {
-        return None;
-    }
-    let t = dot(e2, q) * inv; // d.z = 1, so t is the camera z
-    let n = cross(e1, e2);
-    if dot(n, n) == 0.0 {
-        return None;
-    }
-    Some((t, u, vv))
 }
 
 #[cfg(test)]

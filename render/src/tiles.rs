@@ -29,6 +29,35 @@ pub struct TileLists {
     pos: Vec<u32>,
 }
 
+/// The tiles (x0, y0, x1, y1, inclusive) that a screen box (x0, y0, x1, y1)
+/// in pixels touches on a `w × h` image, or `None` when it touches no pixel:
+/// a box starting at x = w (or y = h), an inverted box, NaN corners.
+#[inline]
+pub fn tile_rect(b: [f32; 4], w: usize, h: usize) -> Option<[u32; 4]> {
+    let [bx0, by0, bx1, by1] = b;
+    let (tw, th) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    if tw == 0 || th == 0 {
+        return None;
+    }
+    // NaN fails every comparison and is skipped too
+    if !(bx1 >= 0.0 && by1 >= 0.0 && bx0 < w as f32 && by0 < h as f32) {
+        return None;
+    }
+    let x0 = (bx0.floor().max(0.0) as usize) / TILE;
+    let y0 = (by0.floor().max(0.0) as usize) / TILE;
+    let x1 = ((bx1.ceil() as usize) / TILE).min(tw - 1);
+    let y1 = ((by1.ceil() as usize) / TILE).min(th - 1);
+    (x0 <= x1 && y0 <= y1).then_some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
+}
+
+/// Order-preserving map of f32 bits to u32 (a total order: −NaN < −∞ < … <
+/// −0 < +0 < … < +∞ < NaN), the depth part of the tile lists' sort key.
+#[inline]
+pub fn depth_key(d: f32) -> u32 {
+    let b = d.to_bits();
+    if b >> 31 == 1 { !b } else { b | 0x8000_0000 }
+}
+
 impl TileLists {
     /// Bins `items` of a `w × h` image: `bbox` gives an item's screen box in
     /// pixels (x0, y0, x1, y1) or `None` to skip it, `depth` its sort key.
@@ -50,26 +79,9 @@ impl TileLists {
         }
         let rects: Vec<Option<[u32; 4]>> = items
             .par_iter()
-            .map(|p| {
-                let [bx0, by0, bx1, by1] = bbox(p)?;
-                // a box starting at x = w (or y = h) touches no pixel; NaN
-                // fails every comparison and is skipped too
-                if !(bx1 >= 0.0 && by1 >= 0.0 && bx0 < w as f32 && by0 < h as f32) {
-                    return None;
-                }
-                let x0 = (bx0.floor().max(0.0) as usize) / TILE;
-                let y0 = (by0.floor().max(0.0) as usize) / TILE;
-                let x1 = ((bx1.ceil() as usize) / TILE).min(tw - 1);
-                let y1 = ((by1.ceil() as usize) / TILE).min(th - 1);
-                // an inverted box (x0 > x1) covers nothing
-                (x0 <= x1 && y0 <= y1).then_some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
-            })
+            .map(|p| tile_rect(bbox(p)?, w, h))
             .collect();
-        // order-preserving map of f32 bits to u32 (a total order)
-        let key = |d: f32| {
-            let b = d.to_bits();
-            if b >> 31 == 1 { !b } else { b | 0x8000_0000 }
-        };
+        let key = depth_key;
         let mut order: Vec<u64> = items
             .par_iter()
             .enumerate()

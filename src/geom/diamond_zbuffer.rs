@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use rayon::prelude::*;
 use splatkit_render::Camera;
 use splatkit_render::gaussian::Gaussians3;
-use splatkit_render::mesh::intersect;
+use splatkit_render::mesh::RayTriangle;
 
 use crate::geom::levelset::diamond_corners;
 
@@ -75,6 +75,7 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
                 }
                 (a as usize, (b as usize + 1).min(n))
             };
+            let prepared = tris.map(|t| t.map(|t| RayTriangle::new(&t.map(|k| v[k]))));
             let (px0, px1) = span(x0, x1, w);
             let (py0, py1) = span(y0, y1, h);
             for y in py0..py1 {
@@ -82,8 +83,8 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
                 for x in px0..px1 {
                     let d = [(x as f64 + 0.5 - cam.cx) / cam.fx, dy, 1.0];
                     let mut best = f64::INFINITY;
-                    for t in tris.iter().flatten() {
-                        if let Some((z, _, _)) = intersect(&t.map(|k| v[k]), d)
+                    for t in prepared.iter().flatten() {
+                        if let Some((z, _, _)) = t.hit(d)
                             && z > near
                             && z < best
                         {

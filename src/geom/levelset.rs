@@ -423,17 +423,26 @@ pub fn sample_levelset(
                     .map(|i| opts.range * sigma * (2.0 * i as f64 / (n - 1) as f64 - 1.0))
                     .collect();
                 let at = |t: f64| [p[0] + t * dir[0], p[1] + t * dir[1], p[2] + t * dir[2]];
-                let ds: Vec<f64> = ts.iter().map(|&t| field.at(hit, at(t)).0).collect();
+                // densities along the ray, evaluated only as far as the
+                // crossings need (the first crossing of every level)
+                let mut ds: Vec<f64> = Vec::with_capacity(n);
+                let mut density = |j: usize| -> f64 {
+                    while ds.len() <= j {
+                        ds.push(field.at(hit, at(ts[ds.len()])).0);
+                    }
+                    ds[j]
+                };
                 opts.levels
                     .iter()
                     .map(|&lam| {
                         let lam = lam as f64;
-                        if ds[0].is_nan() || ds[0] >= lam {
+                        let d0 = density(0);
+                        if d0.is_nan() || d0 >= lam {
                             return None;
                         }
-                        let j = (1..n).find(|&j| ds[j] > lam)?;
-                        let t = ts[j - 1]
-                            + (lam - ds[j - 1]) / (ds[j] - ds[j - 1]) * (ts[j] - ts[j - 1]);
+                        let j = (1..n).find(|&j| density(j) > lam)?;
+                        let ds = [density(j - 1), density(j)];
+                        let t = ts[j - 1] + (lam - ds[0]) / (ds[1] - ds[0]) * (ts[j] - ts[j - 1]);
                         let x = at(t);
                         let (_, gr) = field.at(hit, x);
                         let l = (gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]).sqrt();
