@@ -18,6 +18,17 @@ fn bin(name: &str) -> Command {
     Command::cargo_bin(name).expect("binary built")
 }
 
+/// Fails the test with the command's stderr (labelled `what`) unless it
+/// succeeded; returns its stdout.
+fn stdout_of(out: std::process::Output, what: &str) -> Vec<u8> {
+    assert!(
+        out.status.success(),
+        "{what}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
 /// Writes a 3DGS model folder: iteration_100 (a decoy) and iteration_7000.
 fn model_folder(dir: &std::path::Path) {
     let g = T.gaussians(120, 42, 0.004, 50, 1);
@@ -87,12 +98,8 @@ fn methods_sample_the_surface() {
             ])
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{method}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let pc = parse_points("pts", &out.stdout).unwrap();
+        let out = stdout_of(out, method);
+        let pc = parse_points("pts", &out).unwrap();
         assert!(pc.len() > 1000, "{method}: {} points", pc.len());
         let normals = pc.normals.as_ref().unwrap();
         let mut off = 0;
@@ -307,14 +314,10 @@ fn orbit_cameras_without_a_camera_file() {
         .arg(format!("--json={}", json.display()))
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = stdout_of(out, "orbit");
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(v["views"], 12, "two rings of six, none held out: {v}");
-    let pc = parse_points("pts", &out.stdout).unwrap();
+    let pc = parse_points("pts", &out).unwrap();
     assert!(pc.len() > 5000, "{} points", pc.len());
     for p in &pc.positions {
         let d = T.distance(p.map(f64::from));
@@ -394,12 +397,8 @@ fn real_scenes_become_meshes() {
             ])
             .output()
             .unwrap();
-        assert!(
-            pts.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&pts.stderr)
-        );
-        let cloud = parse_points("pts", &pts.stdout).unwrap();
+        let pts = stdout_of(pts, name);
+        let cloud = parse_points("pts", &pts).unwrap();
         let json = tempfile::NamedTempFile::new().unwrap();
         let raw = bin("poisson")
             .args([
@@ -413,14 +412,10 @@ fn real_scenes_become_meshes() {
                 "-",
             ])
             .arg(format!("--json={}", json.path().display()))
-            .write_stdin(pts.stdout)
+            .write_stdin(pts)
             .output()
             .unwrap();
-        assert!(
-            raw.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&raw.stderr)
-        );
+        let raw = stdout_of(raw, name);
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(json.path()).unwrap()).unwrap();
         let cell = report["parts"][0]["poisson"]["cell_size"]
@@ -428,15 +423,11 @@ fn real_scenes_become_meshes() {
             .expect("poisson reports its cell size");
         let clean = bin("clean")
             .args(["-", "--min-component-area", "0.01", "-q", "-o", "-"])
-            .write_stdin(raw.stdout)
+            .write_stdin(raw)
             .output()
             .unwrap();
-        assert!(
-            clean.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&clean.stderr)
-        );
-        let m = splatkit::io::ply::mesh::parse_mesh("m", &clean.stdout).unwrap();
+        let clean = stdout_of(clean, name);
+        let m = splatkit::io::ply::mesh::parse_mesh("m", &clean).unwrap();
         assert!(m.faces.len() >= 20_000, "{name}: {} faces", m.faces.len());
         let g = splatkit::io::ply::gaussians::parse_gaussians("g", &std::fs::read(&scene).unwrap())
             .unwrap()
