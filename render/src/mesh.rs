@@ -36,7 +36,8 @@ pub const NO_FACE: u32 = u32::MAX;
 type Hit = (u32, [f32; 2], f32, [f32; 3]);
 
 struct Face {
-    v: [[f64; 3]; 3],
+    /// The camera-space triangle, prepared once for all its pixels' rays.
+    tri: RayTriangle,
     bbox: [f32; 4],
     depth: f32,
 }
@@ -99,7 +100,11 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                 full
             };
             let depth = v.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min) as f32;
-            Some(Face { v, bbox, depth })
+            Some(Face {
+                tri: RayTriangle::new(&v),
+                bbox,
+                depth,
+            })
         })
         .collect();
     let tiles = TileLists::build(
@@ -154,7 +159,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                         continue;
                     }
                     let d = [(x as f64 + 0.5 - cam.cx) / cam.fx, dy, 1.0];
-                    if let Some((z, u, v)) = intersect(&f.v, d)
+                    if let Some((z, u, v)) = f.tri.hit(d)
                         && z > near
                         && (z < slot.0 || (z == slot.0 && fi < slot.1))
                     {
@@ -178,7 +183,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                     (y as f64 + 0.5 - cam.cy) / cam.fy,
                     1.0,
                 ];
-                let n = facing_normal(&f.v, d);
+                let n = f.tri.facing_normal(d);
                 (fi, [u as f32, v as f32], z as f32, n.map(|c| c as f32))
             })
             .collect()
@@ -208,18 +213,6 @@ fn cross(a: V3, b: V3) -> V3 {
 
 fn dot(a: V3, b: V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// The unit normal of triangle `v` turned toward a ray along `d` (zero for a
-/// degenerate triangle, which never wins a pixel).
-fn facing_normal(v: &[V3; 3], d: V3) -> V3 {
-    let n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-    let l = dot(n, n).sqrt();
-    if l == 0.0 {
-        return [0.0; 3];
-    }
-    let n = n.map(|c| c / l);
-    if dot(n, d) > 0.0 { n.map(|c| -c) } else { n }
 }
 
 /// Ray from the camera centre along `d` (d.z = 1) against triangle `v`
@@ -258,6 +251,18 @@ impl RayTriangle {
             e2q: dot(e2, q),
             degenerate: dot(n, n) == 0.0,
         }
+    }
+
+    /// The unit normal turned toward a ray along `d` (zero for a degenerate
+    /// triangle, which never wins a pixel).
+    pub fn facing_normal(&self, d: V3) -> V3 {
+        let n = cross(self.e1, self.e2);
+        let l = dot(n, n).sqrt();
+        if l == 0.0 {
+            return [0.0; 3];
+        }
+        let n = n.map(|c| c / l);
+        if dot(n, d) > 0.0 { n.map(|c| -c) } else { n }
     }
 
     /// Camera z and barycentrics (u, v) of the hit of the ray along `d`

@@ -114,8 +114,23 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::levelset::diamonds;
     use splatkit_render::mesh as zbuffer;
+
+    /// The diamonds as a mesh for the mesh rasteriser: 4 vertices and 2
+    /// faces per Gaussian (faces 2i and 2i+1 belong to Gaussian i), split
+    /// along the +a1/−a1 diagonal as [`diamond_zbuffer`] splits them.
+    fn diamonds(g: &Gaussians3, cam: &Camera) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        let c = cam.center();
+        let mut pos = Vec::with_capacity(4 * g.len());
+        let mut faces = Vec::with_capacity(2 * g.len());
+        for i in 0..g.len() {
+            let b = 4 * i as u32;
+            pos.extend_from_slice(&diamond_corners(g, i, [c.x, c.y, c.z]));
+            faces.push([b, b + 1, b + 2]);
+            faces.push([b, b + 2, b + 3]);
+        }
+        (pos, faces)
+    }
 
     /// Same depths and Gaussians as the mesh z-buffer of [`diamonds`] on a
     /// random scene of 3,000 overlapping Gaussians (some straddling the near

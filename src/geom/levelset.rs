@@ -264,40 +264,15 @@ pub fn diamond_corners(g: &Gaussians3, i: usize, c: [f64; 3]) -> [[f32; 3]; 4] {
     ]
 }
 
-/// The camera-facing diamonds of `g` seen from `cam` as a mesh: 4 vertices
-/// and 2 faces per Gaussian (faces 2i and 2i+1 belong to Gaussian i, split
-/// along the +a1/−a1 diagonal); Gaussians behind the camera get NaN
-/// vertices, whose faces are never hit.
-pub fn diamonds(g: &Gaussians3, cam: &Camera) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let c = cam.center();
-    let c = [c.x, c.y, c.z];
-    let quads: Vec<[[f32; 3]; 4]> = (0..g.len())
-        .into_par_iter()
-        .map(|i| diamond_corners(g, i, c))
-        .collect();
-    let mut pos = Vec::with_capacity(4 * quads.len());
-    let mut faces = Vec::with_capacity(2 * quads.len());
-    for (i, q) in quads.iter().enumerate() {
-        let b = 4 * i as u32;
-        pos.extend_from_slice(q);
-        faces.push([b, b + 1, b + 2]);
-        faces.push([b, b + 2, b + 3]);
-    }
-    (pos, faces)
-}
-
 /// Per pixel: camera z and hit Gaussian (`None` where nothing is hit).
 fn depth_and_hits(
     g: &Gaussians3,
     cam: &Camera,
     opts: &LevelsetOptions,
     centres: &NnIndex,
-) -> Vec<Option<(f64, usize)>> {
+) -> Vec<Option<(f32, u32)>> {
     match opts.depth {
-        DepthSource::Diamonds => diamond_zbuffer(g, cam, opts.near)
-            .into_iter()
-            .map(|hit| hit.map(|(d, i)| (d as f64, i as usize)))
-            .collect(),
+        DepthSource::Diamonds => diamond_zbuffer(g, cam, opts.near),
         DepthSource::Median => {
             let s = RasterSettings {
                 background: [0.0; 3],
@@ -313,7 +288,7 @@ fn depth_and_hits(
                         return None;
                     }
                     let p = back_project(cam, o % w, o / w, d as f64);
-                    centres.nearest(&p).map(|(i, _)| (d as f64, i))
+                    centres.nearest(&p).map(|(i, _)| (d, i as u32))
                 })
                 .collect()
         }
@@ -413,6 +388,7 @@ pub fn sample_levelset(
             .map(|&o| {
                 let o = o as usize;
                 let (z, hit) = hits[o].expect("covered");
+                let (z, hit) = (z as f64, hit as usize);
                 let p = back_project(cam, o % w, o / w, z);
                 let mu = field.means[hit];
                 let v = unit([eye[0] - mu[0], eye[1] - mu[1], eye[2] - mu[2]]);
