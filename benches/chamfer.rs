@@ -13,13 +13,12 @@
 use std::time::Instant;
 
 use rand::{RngExt, SeedableRng};
+use splatkit::eval::chamfer::{Cloud, GenericParams, SampleMode, chamfer_generic};
 use splatkit::eval::dtu::DtuParams;
 use splatkit::io::dtu::{ObsMask, write_obs_mask, write_plane};
 use splatkit::io::ply::{Format, mesh::write_mesh, points::write_points};
 use splatkit::model::{Mesh, PointCloud};
-use splatkit::ops::chamfer::{
-    Cloud, DtuFiles, GenericParams, SampleMode, chamfer_generic, dtu_from_files,
-};
+use splatkit::ops::chamfer::{DtuFiles, dtu_from_files};
 
 fn fibonacci(n: usize, r: f64, c: [f64; 3], noise: f64, seed: u64) -> Vec<[f64; 3]> {
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);

@@ -21,8 +21,8 @@ use std::time::Instant;
 use rand::{RngExt, SeedableRng};
 use splatkit::geom::clean::{merge_duplicate_vertices, remove_non_manifold_edges};
 use splatkit::geom::decimate::{Target, decimate};
+use splatkit::geom::poisson::pipeline::{PipelineOptions, run_pipeline};
 use splatkit::model::PointCloud;
-use splatkit::ops::poisson::{PipelineOptions, run_pipeline};
 
 fn scene(n: usize, seed: u64) -> PointCloud {
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);

@@ -132,7 +132,7 @@ fn main() {
     let g = splatkit::io::ply::gaussians::parse_gaussians("biker", &bytes)
         .expect("biker parses")
         .to_raster();
-    let cams = splatkit::ops::render::orbit_cameras(
+    let cams = splatkit::geom::orbit::orbit_cameras(
         &g.means,
         8,
         1280,

@@ -14,8 +14,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 use splatkit::geom::levelset::{LevelsetOptions, sample_levelset};
+use splatkit::geom::orbit::orbit_cameras;
 use splatkit::geom::synthetic::Torus;
-use splatkit::ops::render::orbit_cameras;
 
 fn main() {
     let env = |k: &str, d: f64| -> f64 {

@@ -5,6 +5,7 @@
 //! [`ops`] run the algorithms, [`io`] writes the results. [`cli`] holds the
 //! conventions every command shares (stdin/stdout, progress, threads, exit codes).
 
+pub mod app;
 pub mod cli;
 pub mod error;
 pub mod eval;

@@ -3,7 +3,7 @@
 //! every point's nearest neighbour is its radial / normal partner (the
 //! spacing of each cloud is larger than the offset, checked below).
 
-use splatkit::ops::chamfer::{Cloud, GenericParams, SampleMode, chamfer_generic};
+use splatkit::eval::chamfer::{Cloud, GenericParams, SampleMode, chamfer_generic};
 
 fn params(thresholds: &[f64]) -> GenericParams {
     GenericParams {
@@ -226,7 +226,7 @@ fn sphere_mesh_against_a_larger_sphere() {
     let mut p = params(&[0.1, 0.11]);
     p.sample = SampleMode::Area;
     p.count = 200_000;
-    let pred = splatkit::ops::chamfer::mesh_cloud(&mesh, &p).unwrap();
+    let pred = splatkit::eval::chamfer::mesh_cloud(&mesh, &p).unwrap();
     let gt = Cloud {
         points: fibonacci_sphere(200_000, 1.1),
         normals: None,

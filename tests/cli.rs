@@ -4,9 +4,9 @@
 
 use assert_cmd::Command;
 use predicates::prelude::*;
+use splatkit::geom::synthetic::demo_soup;
 use splatkit::io::ply::{Format, soup::write_soup};
 use splatkit::model::{Extras, TriangleSoup};
-use splatkit::ops::demo::demo_soup;
 
 fn bin(name: &str) -> Command {
     Command::cargo_bin(name).expect("binary built")
@@ -128,7 +128,7 @@ fn export_off_other_formats_round_trip_geometry() {
             .args(["--no-dedup", "-q"])
             .assert()
             .success();
-        let m = splatkit::io::any::load_mesh(&out).unwrap();
+        let m = splatkit::io::any::load_mesh(&out, "cli test").unwrap();
         assert_eq!(m.faces.len(), soup.len(), "{ext}");
         // With --no-dedup every corner is its own vertex, in triangle order
         // (OBJ/glTF may un-share further but never reorder corners).

@@ -5,9 +5,9 @@
 
 use assert_cmd::Command;
 use glam::DVec3;
+use splatkit::geom::orbit::orbit_cameras;
 use splatkit::geom::synthetic::Torus;
 use splatkit::io::ply::{Format, gaussians::write_gaussians, points::parse_points};
-use splatkit::ops::render::orbit_cameras;
 
 const T: Torus = Torus {
     major: 1.0,

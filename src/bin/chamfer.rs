@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::chamfer_main()
+    splatkit::app::chamfer_main()
 }

@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::clean_main()
+    splatkit::app::clean_main()
 }

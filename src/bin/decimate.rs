@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::decimate_main()
+    splatkit::app::decimate_main()
 }

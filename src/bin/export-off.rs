@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::export_off_main()
+    splatkit::app::export_off_main()
 }

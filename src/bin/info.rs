@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::info_main()
+    splatkit::app::info_main()
 }

@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::poisson_main()
+    splatkit::app::poisson_main()
 }

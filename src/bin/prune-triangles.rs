@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::prune_triangles_main()
+    splatkit::app::prune_triangles_main()
 }

@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::render_main()
+    splatkit::app::render_main()
 }

@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::splat2points_main()
+    splatkit::app::splat2points_main()
 }

@@ -1,3 +1,3 @@
 fn main() {
-    splatkit::cli::commands::splatkit_main()
+    splatkit::app::splatkit_main()
 }

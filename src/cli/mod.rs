@@ -3,13 +3,15 @@
 //! stderr that stay silent when stderr is not a terminal, exit codes
 //! 0 (success) / 1 (error) / 2 (usage error, from clap).
 
-pub mod commands;
-
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+pub mod orbit;
+
+pub use crate::io::source::shown;
 
 /// Options every command accepts.
 #[derive(Args, Debug, Clone, Default)]
@@ -119,15 +121,6 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         c.downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
-}
-
-/// Display form of a path argument (`-` shown as `<stdin>` or `<stdout>`).
-pub fn shown(path: &Path, stdout: bool) -> String {
-    if path.as_os_str() == "-" {
-        if stdout { "<stdout>" } else { "<stdin>" }.to_string()
-    } else {
-        path.display().to_string()
-    }
 }
 
 /// Refuses to write binary data to a terminal.

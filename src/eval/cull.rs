@@ -16,26 +16,16 @@
 //! `culled_mesh.ply` stores them.
 //!
 //! Masks: channel 0 of OpenCV's BGR read, i.e. the **blue** channel of an
-//! RGB(A) PNG (the grey value of a grey PNG); any nonzero value is object.
-
-use std::path::{Path, PathBuf};
+//! RGB(A) PNG (the grey value of a grey PNG); any nonzero value is object
+//! (decoded by `io::image::read_mask`; the op pairs cameras and masks).
 
 use glam::{DMat3, DMat4, DVec3};
 use rayon::prelude::*;
 
-use crate::io::cameras::npz::{NpzOptions, read_neus_cameras};
-use crate::{Error, Result};
+pub use crate::model::Mask;
 
 /// Dilation radius of the reference (`disk(24)`), pixels.
 pub const DILATION_RADIUS: u32 = 24;
-
-/// A binary mask, row-major.
-#[derive(Clone, Debug)]
-pub struct Mask {
-    pub width: usize,
-    pub height: usize,
-    pub bits: Vec<bool>,
-}
 
 /// One view for culling.
 #[derive(Clone, Debug)]
@@ -45,25 +35,6 @@ pub struct CullView {
     pub translation: DVec3,
     /// The dilated mask.
     pub mask: Mask,
-}
-
-/// Decodes a PNG mask: object where channel 0 of the BGR image is nonzero.
-pub fn read_mask(path: &Path) -> Result<Mask> {
-    let (info, buf) =
-        crate::io::image::decode_png(path, png::Transformations::normalize_to_color8())?;
-    let (w, h) = (info.width as usize, info.height as usize);
-    let channels = info.color_type.samples();
-    // BGR channel 0 is blue: byte 2 of RGB/RGBA, the grey byte otherwise.
-    let pick = match info.color_type {
-        png::ColorType::Rgb | png::ColorType::Rgba => 2,
-        _ => 0,
-    };
-    let bits = (0..w * h).map(|i| buf[i * channels + pick] != 0).collect();
-    Ok(Mask {
-        width: w,
-        height: h,
-        bits,
-    })
 }
 
 /// 1-D squared Euclidean distance transform (Felzenszwalb & Huttenlocher)
@@ -147,49 +118,6 @@ pub fn dilate_disk(m: &Mask, r: u32) -> Mask {
         height: h,
         bits,
     }
-}
-
-/// Loads the views: cameras from `cameras.npz` (`world_mat_i`, `scale_mat_i`)
-/// and one mask per view from `mask_dir` (`*.png`, sorted by name), dilated.
-/// Returns the views and the `scale_mat` that maps the normalised frame to mm.
-pub fn load_views(cameras: &Path, mask_dir: &Path) -> Result<(Vec<CullView>, DMat4)> {
-    let cams = read_neus_cameras(cameras, &NpzOptions::default())?;
-    let mut masks: Vec<PathBuf> = std::fs::read_dir(mask_dir)
-        .map_err(|e| Error::io(mask_dir.display(), e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
-        .collect();
-    masks.sort();
-    if masks.is_empty() {
-        return Err(Error::invalid(format!(
-            "{}: no PNG masks",
-            mask_dir.display()
-        )));
-    }
-    if cams.views.len() < masks.len() {
-        return Err(Error::invalid(format!(
-            "{} has {} views but {} holds {} masks: every mask needs a camera (world_mat_0..world_mat_{})",
-            cameras.display(),
-            cams.views.len(),
-            mask_dir.display(),
-            masks.len(),
-            masks.len() - 1
-        )));
-    }
-    let views = masks
-        .par_iter()
-        .enumerate()
-        .map(|(i, path)| {
-            let d = &cams.views[i].decomposition;
-            Ok(CullView {
-                k: d.k,
-                rotation: d.rotation,
-                translation: d.translation,
-                mask: dilate_disk(&read_mask(path)?, DILATION_RADIUS),
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
-    Ok((views, cams.scale_mat))
 }
 
 /// Which vertices survive the culling (see module docs).

@@ -28,7 +28,62 @@ use crate::geom::downsample::{greedy_radius_downsample, seeded_permutation};
 use crate::geom::knn::NnIndex;
 use crate::geom::sample::dtu_mesh_points_par;
 use crate::geom::stats::mean_below;
-use crate::io::dtu::{ObsMask, bb_filter};
+use crate::model::ObsMask;
+
+// The lookups of the reference's stage B (`eval.py` steps 5 and 6) on the
+// mask that `io::dtu` reads: the protocol's rules, so they live here.
+impl ObsMask {
+    /// The voxel `[gx, gy, gz]` that `p` (mm) falls in, or `None` outside the
+    /// grid; step 6 of the reference (`eval.py`):
+    /// `g = np.around((p − BB[:1]) / Res).astype(np.int32)`, kept when
+    /// `0 ≤ g < ObsMask.shape` on every axis.
+    ///
+    /// Exactly as there: `eval.py` has already replaced `BB` by
+    /// `BB.astype(np.float32)` (for the bounding-box filter) when it computes
+    /// `g`, so the minimum corner used is each `bb[0][i]` rounded to f32 and
+    /// widened back (f64 − f32 is f64 in numpy); the subtraction and the
+    /// division by `Res` are in f64, and `np.around` rounds half to even.
+    pub fn voxel(&self, p: [f64; 3]) -> Option<[usize; 3]> {
+        let mut g = [0usize; 3];
+        for i in 0..3 {
+            let min = f64::from(self.bb[0][i] as f32);
+            let r = ((p[i] - min) / self.res).round_ties_even();
+            // numpy casts to int32 and then compares; every in-range value
+            // is an exact small integer, and NaN / huge values fall outside
+            // either way.
+            if !(r >= 0.0 && r < self.dims[i] as f64) {
+                return None;
+            }
+            g[i] = r as usize;
+        }
+        Some(g)
+    }
+
+    /// True when `p` (mm) falls in an observed voxel: [`ObsMask::voxel`] is
+    /// `Some` and the mask there is non-zero (the reference's `in_obs`).
+    pub fn contains(&self, p: [f64; 3]) -> bool {
+        self.voxel(p)
+            .and_then(|[x, y, z]| self.mask.get(x + self.dims[0] * (y + self.dims[1] * z)))
+            .is_some_and(|&m| m != 0)
+    }
+}
+
+/// The bounding-box filter of the reference (`eval.py` step 5, `inbound`):
+/// true when on every axis `BB_min − patch ≤ p < BB_max + 2·patch` (mm).
+///
+/// As there, `BB` has been cast to float32 first, and because numpy keeps a
+/// float32 array float32 when a Python scalar is added, `BB_min − patch` and
+/// `BB_max + 2·patch` are computed and rounded in f32 (`patch` and `2·patch`
+/// rounded to f32 first); the comparison with the f64 point is in f64.
+pub fn bb_filter(p: [f64; 3], bb: &[[f64; 3]; 2], patch: f64) -> bool {
+    let lo_off = patch as f32;
+    let hi_off = (patch * 2.0) as f32;
+    (0..3).all(|i| {
+        let lo = f64::from(bb[0][i] as f32 - lo_off);
+        let hi = f64::from(bb[1][i] as f32 + hi_off);
+        p[i] >= lo && p[i] < hi
+    })
+}
 
 /// The prediction: a mesh (up-sampled) or points (used as they are).
 #[derive(Clone, Debug)]
@@ -231,4 +286,59 @@ pub fn vis_color(d: f64, params: &DtuParams) -> [u8; 3] {
     // R·a + W·(1 − a) = (1, 1 − a, 1 − a).
     let c = ((1.0 - a) * 255.0).round() as u8;
     [255, c, c]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 5×4×3 mask with the voxels `set` observed.
+    fn mask_with(set: &[[usize; 3]], bb_min: [f64; 3], res: f64) -> ObsMask {
+        let mut mask = vec![0u8; 60];
+        for &[x, y, z] in set {
+            mask[x + 5 * (y + 4 * z)] = 1;
+        }
+        ObsMask {
+            mask,
+            dims: [5, 4, 3],
+            bb: [bb_min, [bb_min[0] + 2.0, bb_min[1] + 1.5, bb_min[2] + 1.0]],
+            res,
+        }
+    }
+
+    #[test]
+    fn obs_mask_uses_bb_min_rounded_to_f32() {
+        // BB_min x = 0.1, Res = 1, p x = 3.6. numpy 2.4:
+        // np.around((3.6 - np.float32(0.1)) / 1.0) = 3.0 (the reference),
+        // np.around((3.6 - 0.1) / 1.0) = 4.0 (f64 BB would pick voxel 4).
+        let m = mask_with(&[[3, 0, 0]], [0.1, 0.0, 0.0], 1.0);
+        assert_eq!(m.voxel([3.6, 0.0, 0.0]), Some([3, 0, 0]));
+        assert!(m.contains([3.6, 0.0, 0.0]));
+    }
+
+    #[test]
+    fn bb_filter_boundaries() {
+        // numpy 2.4: BB = np.array([[0.1, -5, 0], [10.3, 5, 1]]).astype(np.float32);
+        // BB[:1] - 60.0 -> float32 [-59.900001525878906, -65, -60],
+        // BB[1:] + 120.0 -> float32 [130.3000030517578, 125, 121].
+        let bb = [[0.1, -5.0, 0.0], [10.3, 5.0, 1.0]];
+        let lo_x = -59.900001525878906;
+        let hi_x = 130.3000030517578;
+        let inside = |x: f64| bb_filter([x, 0.0, 0.0], &bb, 60.0);
+        assert!(inside(lo_x), "≤ at the minimum");
+        assert!(!inside(lo_x - 1e-12));
+        assert!(!inside(hi_x), "strict < at the maximum");
+        assert!(inside(hi_x - 1e-12));
+        // Points that f64 arithmetic would classify the other way
+        // (0.1 − 60 = −59.9 and 10.3 + 120 = 130.3 in f64).
+        assert!(inside(-59.9000001));
+        assert!(inside(130.3000001));
+        // Exactly representable bounds on the other axes.
+        assert!(bb_filter([0.0, -65.0, -60.0], &bb, 60.0));
+        assert!(!bb_filter([0.0, -65.0000001, 0.0], &bb, 60.0));
+        assert!(!bb_filter([0.0, 125.0, 0.0], &bb, 60.0));
+        assert!(bb_filter([0.0, 124.9999999, 120.9999999], &bb, 60.0));
+        assert!(!bb_filter([0.0, 0.0, 121.0], &bb, 60.0));
+        assert!(!bb_filter([f64::NAN, 0.0, 0.0], &bb, 60.0));
+    }
 }

@@ -2,6 +2,7 @@
 //! module reproduces one published evaluation protocol (see `eval_tsdf.md`),
 //! leaving file handling to the `chamfer` command in `ops`.
 
+pub mod chamfer;
 pub mod cull;
 pub mod dtu;
 pub mod tnt;

@@ -33,7 +33,7 @@ use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 
 use crate::geom::diamond_zbuffer::diamond_zbuffer;
 use crate::geom::knn::NnIndex;
-use crate::model::Camera;
+use crate::model::{Camera, Column, PointCloud, Property, ScalarData};
 use crate::{Error, Result};
 
 /// A point and its unit normal.
@@ -464,6 +464,27 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
     if l > 0.0 { v.map(|c| c / l) } else { v }
 }
 
+/// The output cloud, with `level` / `camera` properties when asked.
+pub fn to_point_cloud(p: LevelPoints, provenance: bool) -> PointCloud {
+    let mut pc = PointCloud {
+        positions: p.positions,
+        normals: Some(p.normals),
+        colors: Some(p.colors),
+        ..Default::default()
+    };
+    if provenance {
+        pc.extras.item.push(Property {
+            name: "level".into(),
+            data: Column::Scalar(ScalarData::F32(p.level)),
+        });
+        pc.extras.item.push(Property {
+            name: "camera".into(),
+            data: Column::Scalar(ScalarData::U32(p.camera)),
+        });
+    }
+    pc
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -568,7 +589,7 @@ mod tests {
             g.opacities.push(0.95);
             g.sh.push([0.5, 0.2, 0.1]);
         }
-        let cams = crate::ops::render::orbit_cameras(
+        let cams = crate::geom::orbit::orbit_cameras(
             &g.means,
             6,
             128,

@@ -8,8 +8,8 @@
 use glam::{DMat3, DQuat, DVec3};
 use rand::{RngExt, SeedableRng};
 
-use crate::model::Mesh;
 use crate::model::gaussians::{Gaussians, logit};
+use crate::model::{Extras, Mesh, TriangleSoup};
 
 /// A torus of major radius `major` and minor radius `minor`.
 #[derive(Clone, Copy, Debug)]
@@ -150,4 +150,67 @@ mod tests {
         let z = g.quat(0) * glam::Vec3::Z;
         assert!((z.as_dvec3().dot(n) - 1.0).abs() < 1e-5);
     }
+}
+
+/// The demo's triangle-splat scene: a torus (major radius 1, minor 0.35)
+/// tiled with solid, opaque triangles (α = 0.95, σ = 0.5) coloured by angle
+/// with SH degree 3, followed by floaters (transparent α = 0.2, or soft
+/// σ = 3). Returns `(soup, number of torus triangles)`.
+pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let (nu, nv) = (segments.max(3), (segments / 2).max(3));
+    let (big_r, small_r) = (1.0f32, 0.35f32);
+    let point = |i: usize, j: usize| {
+        let u = i as f32 / nu as f32 * std::f32::consts::TAU;
+        let v = j as f32 / nv as f32 * std::f32::consts::TAU;
+        let w = big_r + small_r * v.cos();
+        [w * u.cos(), small_r * v.sin(), w * u.sin()]
+    };
+    let mut s = TriangleSoup {
+        sh_degree: 3,
+        active_sh_degree: 3,
+        extras: Extras::default(),
+        ..Default::default()
+    };
+    let push = |s: &mut TriangleSoup,
+                t: [[f32; 3]; 3],
+                opacity: f32,
+                sigma: f32,
+                rgb: [f32; 3],
+                rng: &mut rand_pcg::Pcg64Mcg| {
+        s.triangles.push(t);
+        s.opacity_raw.push(logit(opacity));
+        s.sigma_raw.push((sigma - 0.01).ln());
+        s.sh_dc.push(rgb.map(splatkit_render::sh::rgb_to_sh));
+        // Mild view dependence in the higher bands.
+        s.sh_rest
+            .extend((0..45).map(|_| rng.random_range(-0.05f32..0.05)));
+    };
+    for i in 0..nu {
+        for j in 0..nv {
+            // Indices wrap so the seams share bit-identical vertices.
+            let (a, b, c, d) = (
+                point(i, j),
+                point((i + 1) % nu, j),
+                point((i + 1) % nu, (j + 1) % nv),
+                point(i, (j + 1) % nv),
+            );
+            let hue = i as f32 / nu as f32;
+            let rgb = [
+                0.5 + 0.4 * (hue * std::f32::consts::TAU).cos(),
+                0.5 + 0.4 * (hue * std::f32::consts::TAU + 2.1).cos(),
+                0.5 + 0.4 * (hue * std::f32::consts::TAU + 4.2).cos(),
+            ];
+            push(&mut s, [a, b, c], 0.95, 0.5, rgb, &mut rng);
+            push(&mut s, [a, c, d], 0.95, 0.5, rgb, &mut rng);
+        }
+    }
+    let surface = s.len();
+    for k in 0..surface / 4 {
+        let centre: [f32; 3] = [0, 1, 2].map(|_| rng.random_range(-1.6f32..1.6));
+        let t = [0, 1, 2].map(|_| [0, 1, 2].map(|c| centre[c] + rng.random_range(-0.08f32..0.08)));
+        let (o, sig) = if k % 2 == 0 { (0.2, 0.5) } else { (0.95, 3.0) };
+        push(&mut s, t, o, sig, [0.8, 0.8, 0.8], &mut rng);
+    }
+    (s, surface)
 }

@@ -1,73 +1,186 @@
-//! Loading and saving by kind of scene, whatever the file format: the
-//! commands call these so every format works everywhere it makes sense.
+//! The one loader and saver: every command reads its scene inputs through
+//! [`load`] (or [`open`] + [`Opened::decode`] when it also wants the format)
+//! and writes them through [`save`] / [`save_mesh`] / [`save_soup`] /
+//! [`save_points`]. Format detection ([`FileFormat::detect`]: content first,
+//! extension second), the PLY kind decision ([`PlyKind::of`]) and the choice
+//! of parser happen here and nowhere else.
+//!
+//! Kinds by format:
+//! - PLY: by its header: 3DGS properties → Gaussians, faces carrying
+//!   `opacity` and `sigma` → triangle soup, faces → mesh, vertices only →
+//!   point cloud;
+//! - `.pt` (Triangle Splatting checkpoint) → triangle soup;
+//! - OBJ, OFF, glTF/GLB → mesh;
+//! - `.npz` / `.json` are camera files, not scenes (see `io::cameras`).
+//!
+//! A command states the kinds it accepts ([`load_kinds`] and the typed
+//! shorthands); any other kind gets the same error everywhere: the file,
+//! what it holds, and what the command takes.
 
-use std::io::Write;
 use std::path::Path;
 
 use crate::io::detect::{FileFormat, PlyKind};
 use crate::io::ply::{Format, Header};
-use crate::io::{gltf, obj, off, ply, read_input, torch_pt};
-use crate::model::{Mesh, TriangleSoup};
+use crate::io::{Input, gltf, obj, off, ply, read_input, torch_pt, write_output};
+use crate::model::{Gaussians, Mesh, PointCloud, Scene, SceneKind, TriangleSoup};
 use crate::{Error, Result};
 
-/// A triangle-splat soup or a plain mesh (what `export-off` accepts).
-#[derive(Clone, Debug)]
-pub enum SoupOrMesh {
-    Soup(TriangleSoup),
-    Mesh(Mesh),
+/// An input read once (file or stdin), with its detected format and, for a
+/// scene file, the kind of scene it holds.
+pub struct Opened {
+    /// The bytes (memory-mapped file or stdin) and the display name.
+    pub input: Input,
+    /// The format, from content first and extension second.
+    pub format: FileFormat,
+    /// What a PLY's header says it holds (`None` for other formats).
+    pub ply_kind: Option<PlyKind>,
 }
 
-fn detect(path: &Path, name: &str, bytes: &[u8]) -> Result<FileFormat> {
-    FileFormat::detect(path, bytes).ok_or_else(|| {
-        Error::format(
-            name,
-            "unknown file format (expected PLY, OBJ, OFF, glTF/GLB or a .pt checkpoint)",
-        )
-    })
-}
+impl Opened {
+    /// Display name for messages (`<stdin>` for `-`).
+    pub fn name(&self) -> &str {
+        &self.input.name
+    }
 
-/// Reads a triangle soup: a Triangle Splatting checkpoint
-/// (`point_cloud_state_dict.pt`) or a splatkit triangle-soup PLY.
-pub fn load_soup(path: &Path) -> Result<TriangleSoup> {
-    match load_soup_or_mesh(path)? {
-        SoupOrMesh::Soup(s) => Ok(s),
-        SoupOrMesh::Mesh(_) => Err(Error::format(
-            crate::cli::shown(path, false),
-            "is a mesh, not a triangle-splat soup (no per-triangle opacity and sigma)",
-        )),
+    /// The scene kind the file holds, or why it holds none.
+    pub fn kind(&self) -> Result<SceneKind> {
+        let name = self.name();
+        Ok(match self.format {
+            FileFormat::TorchPt => SceneKind::TriangleSoup,
+            FileFormat::Obj | FileFormat::Off | FileFormat::Glb | FileFormat::Gltf => {
+                SceneKind::Mesh
+            }
+            FileFormat::Ply => match self.ply_kind.unwrap_or(PlyKind::Other) {
+                PlyKind::Gaussians | PlyKind::CompressedGaussians => SceneKind::Gaussians,
+                PlyKind::TriangleSoup => SceneKind::TriangleSoup,
+                PlyKind::Mesh => SceneKind::Mesh,
+                PlyKind::PointCloud => SceneKind::PointCloud,
+                PlyKind::Other => {
+                    return Err(Error::format(
+                        name,
+                        "a PLY with no 'vertex' element holding x: not a scene (points, mesh, \
+                         Gaussians or triangle splats)",
+                    ));
+                }
+            },
+            FileFormat::Npz | FileFormat::Json => {
+                return Err(Error::format(
+                    name,
+                    format!("is a camera file ({}), not a scene", self.format.name()),
+                ));
+            }
+        })
+    }
+
+    /// Parses the scene with the reader of its format and kind.
+    pub fn decode(&self) -> Result<Scene> {
+        let name = self.name();
+        let bytes: &[u8] = &self.input;
+        Ok(match (self.kind()?, self.format) {
+            (SceneKind::TriangleSoup, FileFormat::TorchPt) => {
+                Scene::TriangleSoup(torch_pt::parse_triangle_checkpoint(name, bytes)?)
+            }
+            (SceneKind::TriangleSoup, _) => {
+                Scene::TriangleSoup(ply::soup::parse_soup(name, bytes)?)
+            }
+            (SceneKind::Gaussians, _) => {
+                Scene::Gaussians(ply::gaussians::parse_gaussians(name, bytes)?)
+            }
+            (SceneKind::PointCloud, _) => {
+                Scene::PointCloud(ply::points::parse_points(name, bytes)?)
+            }
+            (SceneKind::Mesh, f) => Scene::Mesh(parse_mesh_as(f, name, bytes)?),
+        })
+    }
+
+    /// Decodes the scene if its kind is one of `accepts`; otherwise the
+    /// common wrong-kind error naming `command`.
+    pub fn decode_kinds(&self, command: &str, accepts: &[SceneKind]) -> Result<Scene> {
+        let kind = self.kind()?;
+        if !accepts.contains(&kind) {
+            return Err(self.wrong_kind(kind, command, accepts));
+        }
+        self.decode()
+    }
+
+    fn wrong_kind(&self, found: SceneKind, command: &str, accepts: &[SceneKind]) -> Error {
+        let takes = format!(
+            "{command} takes {}, and this file holds {}",
+            SceneKind::list(accepts),
+            found.phrase()
+        );
+        // A PLY meant to be Gaussians: say which 3DGS properties are missing.
+        if self.format == FileFormat::Ply
+            && accepts.contains(&SceneKind::Gaussians)
+            && let Err(Error::Format { path, msg }) =
+                ply::gaussians::check_layout(self.name(), &self.input)
+        {
+            return Error::format(path, format!("{msg} ({takes})"));
+        }
+        Error::format(self.name(), takes)
     }
 }
 
-/// Reads a soup (checkpoint or soup PLY) or, for any other mesh file, a mesh.
-pub fn load_soup_or_mesh(path: &Path) -> Result<SoupOrMesh> {
+/// Reads `path` (`-` = stdin, read once) and detects its format and kind.
+pub fn open(path: &Path) -> Result<Opened> {
     let input = read_input(path)?;
-    let name = input.name.clone();
-    let bytes: &[u8] = &input;
-    Ok(match detect(path, &name, bytes)? {
-        FileFormat::TorchPt => SoupOrMesh::Soup(torch_pt::parse_triangle_checkpoint(&name, bytes)?),
-        FileFormat::Ply => {
-            let h = Header::parse(&name, bytes)?;
-            match PlyKind::of(&h) {
-                PlyKind::TriangleSoup => SoupOrMesh::Soup(ply::soup::parse_soup(&name, bytes)?),
-                PlyKind::Gaussians | PlyKind::CompressedGaussians => {
-                    return Err(Error::format(
-                        &name,
-                        "is a Gaussian splat PLY, not triangles or a mesh",
-                    ));
-                }
-                _ => SoupOrMesh::Mesh(ply::mesh::parse_mesh(&name, bytes)?),
-            }
-        }
-        other => SoupOrMesh::Mesh(parse_mesh_as(other, &name, bytes)?),
+    let format = FileFormat::detect(path, &input).ok_or_else(|| {
+        Error::format(
+            &input.name,
+            "unknown file format (expected PLY, OBJ, OFF, glTF/GLB or a .pt checkpoint)",
+        )
+    })?;
+    let ply_kind = if format == FileFormat::Ply {
+        Some(PlyKind::of(&Header::parse(&input.name, &input)?))
+    } else {
+        None
+    };
+    Ok(Opened {
+        input,
+        format,
+        ply_kind,
     })
 }
 
-/// Reads a mesh in any supported format.
-pub fn load_mesh(path: &Path) -> Result<Mesh> {
-    let input = read_input(path)?;
-    let name = input.name.clone();
-    let f = detect(path, &name, &input)?;
-    parse_mesh_as(f, &name, &input)
+/// Loads any scene file.
+pub fn load(path: &Path) -> Result<Scene> {
+    open(path)?.decode()
+}
+
+/// Loads a scene of one of the kinds `command` accepts.
+pub fn load_kinds(path: &Path, command: &str, accepts: &[SceneKind]) -> Result<Scene> {
+    open(path)?.decode_kinds(command, accepts)
+}
+
+/// Loads a mesh (PLY with faces, OBJ, OFF, glTF/GLB).
+pub fn load_mesh(path: &Path, command: &str) -> Result<Mesh> {
+    match load_kinds(path, command, &[SceneKind::Mesh])? {
+        Scene::Mesh(m) => Ok(m),
+        _ => unreachable!("load_kinds returns an accepted kind"),
+    }
+}
+
+/// Loads a triangle-splat soup (Triangle Splatting checkpoint or soup PLY).
+pub fn load_soup(path: &Path, command: &str) -> Result<TriangleSoup> {
+    match load_kinds(path, command, &[SceneKind::TriangleSoup])? {
+        Scene::TriangleSoup(s) => Ok(s),
+        _ => unreachable!("load_kinds returns an accepted kind"),
+    }
+}
+
+/// Loads 3DGS Gaussians.
+pub fn load_gaussians(path: &Path, command: &str) -> Result<Gaussians> {
+    match load_kinds(path, command, &[SceneKind::Gaussians])? {
+        Scene::Gaussians(g) => Ok(g),
+        _ => unreachable!("load_kinds returns an accepted kind"),
+    }
+}
+
+/// Loads points: a point cloud, or a mesh's vertices (with their normals
+/// and colours).
+pub fn load_points(path: &Path, command: &str) -> Result<PointCloud> {
+    let scene = load_kinds(path, command, &[SceneKind::PointCloud, SceneKind::Mesh])?;
+    Ok(scene.into_points().expect("points or mesh"))
 }
 
 fn parse_mesh_as(f: FileFormat, name: &str, bytes: &[u8]) -> Result<Mesh> {
@@ -104,26 +217,52 @@ pub fn output_format(
     })
 }
 
-/// Writes a soup as a soup PLY (binary little-endian) or a `.pt` checkpoint.
-pub fn write_soup_as(w: &mut dyn Write, soup: &TriangleSoup, f: FileFormat) -> Result<()> {
-    match f {
-        FileFormat::Ply => ply::soup::write_soup(w, soup, Format::BinaryLittleEndian),
-        FileFormat::TorchPt => torch_pt::write_triangle_checkpoint(w, soup),
-        other => Err(Error::invalid(format!(
+/// Writes a soup as a soup PLY (binary little-endian) or a `.pt` checkpoint,
+/// atomically (`-` = stdout).
+pub fn save_soup(path: &Path, soup: &TriangleSoup, f: FileFormat) -> Result<()> {
+    if !matches!(f, FileFormat::Ply | FileFormat::TorchPt) {
+        return Err(Error::invalid(format!(
             "a triangle soup can be written as ply or pt, not {}",
-            other.name()
-        ))),
+            f.name()
+        )));
     }
+    write_output(path, |w| match f {
+        FileFormat::Ply => ply::soup::write_soup(w, soup, Format::BinaryLittleEndian),
+        _ => torch_pt::write_triangle_checkpoint(w, soup),
+    })
+}
+
+/// How a mesh is written where a format has choices.
+#[derive(Clone, Debug, Default)]
+pub struct MeshWriteOptions {
+    /// OFF layout; `None` = [`off::OffWriteOptions::for_mesh`] (COFF when
+    /// the mesh has vertex colours).
+    pub off: Option<off::OffWriteOptions>,
 }
 
 /// Writes a mesh as PLY (binary little-endian, every attribute kept), OBJ,
-/// OFF (COFF with vertex colours) or glTF/GLB.
-pub fn write_mesh_as(w: &mut dyn Write, mesh: &Mesh, f: FileFormat) -> Result<()> {
-    match f {
+/// OFF or glTF/GLB, atomically (`-` = stdout).
+pub fn save_mesh(path: &Path, mesh: &Mesh, f: FileFormat, opts: &MeshWriteOptions) -> Result<()> {
+    if !matches!(
+        f,
+        FileFormat::Ply | FileFormat::Obj | FileFormat::Off | FileFormat::Glb | FileFormat::Gltf
+    ) {
+        return Err(Error::invalid(format!(
+            "a mesh can be written as ply, obj, off, glb or gltf, not {}",
+            f.name()
+        )));
+    }
+    write_output(path, |w| match f {
         FileFormat::Ply => ply::mesh::write_mesh(w, mesh, Format::BinaryLittleEndian),
         FileFormat::Obj => obj::write_obj(w, mesh, &obj::ObjWriteOptions::default()),
-        FileFormat::Off => off::write_off(w, mesh, &off::OffWriteOptions::for_mesh(mesh)),
-        FileFormat::Glb | FileFormat::Gltf => gltf::write_gltf(
+        FileFormat::Off => {
+            let o = opts
+                .off
+                .clone()
+                .unwrap_or_else(|| off::OffWriteOptions::for_mesh(mesh));
+            off::write_off(w, mesh, &o)
+        }
+        _ => gltf::write_gltf(
             w,
             mesh,
             &gltf::GltfWriteOptions {
@@ -134,9 +273,133 @@ pub fn write_mesh_as(w: &mut dyn Write, mesh: &Mesh, f: FileFormat) -> Result<()
                 },
             },
         ),
-        other => Err(Error::invalid(format!(
-            "a mesh can be written as ply, obj, off, glb or gltf, not {}",
-            other.name()
-        ))),
+    })
+}
+
+/// Writes a point cloud as PLY in `format` (every attribute kept),
+/// atomically (`-` = stdout).
+pub fn save_points(path: &Path, points: &PointCloud, format: Format) -> Result<()> {
+    write_output(path, |w| ply::points::write_points(w, points, format))
+}
+
+/// Writes any scene in its natural file (Gaussians: 3DGS PLY; soup: soup
+/// PLY or `.pt`; mesh: `f`; points: binary PLY), atomically.
+pub fn save(path: &Path, scene: &Scene, f: FileFormat) -> Result<()> {
+    match scene {
+        Scene::Gaussians(g) => {
+            if f != FileFormat::Ply {
+                return Err(Error::invalid(format!(
+                    "Gaussians are written as a 3DGS ply, not {}",
+                    f.name()
+                )));
+            }
+            write_output(path, |w| {
+                ply::gaussians::write_gaussians(w, g, Format::BinaryLittleEndian)
+            })
+        }
+        Scene::TriangleSoup(s) => save_soup(path, s, f),
+        Scene::Mesh(m) => save_mesh(path, m, f, &MeshWriteOptions::default()),
+        Scene::PointCloud(p) => {
+            if f != FileFormat::Ply {
+                return Err(Error::invalid(format!(
+                    "a point cloud is written as ply, not {}",
+                    f.name()
+                )));
+            }
+            save_points(path, p, Format::BinaryLittleEndian)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Mesh;
+
+    fn tri() -> Mesh {
+        Mesh::new(
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[0, 1, 2]],
+        )
+    }
+
+    /// Every kind round-trips through save + load, and the loader tells the
+    /// kind from the content, not the name.
+    #[test]
+    fn save_then_load_gives_the_same_kind_and_data() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = tri();
+        for ext in ["ply", "obj", "off", "glb", "gltf"] {
+            let p = dir.path().join(format!("m.{ext}"));
+            let f = FileFormat::from_extension(&p).unwrap();
+            save(&p, &Scene::Mesh(m.clone()), f).unwrap();
+            let back = load(&p).unwrap();
+            assert_eq!(back.kind(), SceneKind::Mesh, "{ext}");
+            let Scene::Mesh(b) = back else { unreachable!() };
+            assert_eq!(b.faces, m.faces, "{ext}");
+            assert_eq!(b.vertices, m.vertices, "{ext}");
+        }
+        let pts = PointCloud {
+            positions: vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]],
+            ..Default::default()
+        };
+        let p = dir.path().join("p.ply");
+        save(&p, &Scene::PointCloud(pts.clone()), FileFormat::Ply).unwrap();
+        assert_eq!(
+            load(&p).unwrap().into_points().unwrap().positions,
+            pts.positions
+        );
+    }
+
+    /// A kind the command does not take is refused with one message shape:
+    /// the file, what the command takes, what the file holds.
+    #[test]
+    fn wrong_kinds_get_the_same_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.obj");
+        save(&p, &Scene::Mesh(tri()), FileFormat::Obj).unwrap();
+        let e = load_soup(&p, "prune-triangles").unwrap_err().to_string();
+        assert!(e.starts_with(&p.display().to_string()), "{e}");
+        assert!(
+            e.ends_with("prune-triangles takes a triangle-splat soup, and this file holds a mesh"),
+            "{e}"
+        );
+        let e = load_gaussians(&p, "render").unwrap_err().to_string();
+        assert!(
+            e.ends_with("render takes Gaussian splats, and this file holds a mesh"),
+            "{e}"
+        );
+        // A PLY of points asked for as Gaussians names the missing properties.
+        let q = dir.path().join("p.ply");
+        save(
+            &q,
+            &Scene::PointCloud(PointCloud {
+                positions: vec![[0.0; 3]],
+                ..Default::default()
+            }),
+            FileFormat::Ply,
+        )
+        .unwrap();
+        let e = load_gaussians(&q, "splat2points").unwrap_err().to_string();
+        assert!(
+            e.contains("is not a 3DGS Gaussian layout: missing properties"),
+            "{e}"
+        );
+        assert!(
+            e.contains("splat2points takes Gaussian splats, and this file holds a point cloud"),
+            "{e}"
+        );
+        // camera files and unknown bytes are not scenes
+        let c = dir.path().join("cameras.json");
+        std::fs::write(&c, "[]").unwrap();
+        assert!(load(&c).unwrap_err().to_string().contains("camera file"));
+        let u = dir.path().join("x.bin");
+        std::fs::write(&u, "hello").unwrap();
+        assert!(
+            load(&u)
+                .unwrap_err()
+                .to_string()
+                .contains("unknown file format")
+        );
     }
 }

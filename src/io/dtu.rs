@@ -7,14 +7,14 @@
 //! <root>/ObsMask/Plane{scan}.mat             P (4 values, ground plane)
 //! ```
 //!
-//! Besides the readers, this module holds the two point filters of the
-//! reference's stage B (`eval.py`, steps 5 and 6 of the protocol notes):
-//! [`bb_filter`] and [`ObsMask::contains`], reproducing its float32 and
-//! rounding behaviour exactly.
+//! The readers fill [`ObsMask`] (a `model` type); the protocol's lookups in
+//! it ([`ObsMask::contains`], the bounding-box filter) are the evaluation's
+//! rules and live in [`crate::eval::dtu`].
 
 use std::path::{Path, PathBuf};
 
 use crate::io::mat::{self, MatArray, MatData};
+pub use crate::model::ObsMask;
 use crate::{Error, Result};
 
 /// The 15 DTU scans of the IDR / NeuS / VolSDF / 2DGS evaluation subset
@@ -22,74 +22,6 @@ use crate::{Error, Result};
 pub const DTU_SCANS: [u32; 15] = [
     24, 37, 40, 55, 63, 65, 69, 83, 97, 105, 106, 110, 114, 118, 122,
 ];
-
-/// The observability mask of one DTU scan (`ObsMask{scan}_10.mat`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ObsMask {
-    /// One byte per voxel, non-zero = observed; column-major as MATLAB stores
-    /// it: voxel (x, y, z) is at `x + nx*(y + ny*z)`.
-    pub mask: Vec<u8>,
-    /// Voxel counts `[nx, ny, nz]`.
-    pub dims: [usize; 3],
-    /// The `BB` variable: `bb[0]` is its first row (minimum corner), `bb[1]`
-    /// its second row (maximum corner), x y z in millimetres, f64 as stored.
-    pub bb: [[f64; 3]; 2],
-    /// The `Res` variable: voxel size in millimetres.
-    pub res: f64,
-}
-
-impl ObsMask {
-    /// The voxel `[gx, gy, gz]` that `p` (mm) falls in, or `None` outside the
-    /// grid; step 6 of the reference (`eval.py`):
-    /// `g = np.around((p − BB[:1]) / Res).astype(np.int32)`, kept when
-    /// `0 ≤ g < ObsMask.shape` on every axis.
-    ///
-    /// Exactly as there: `eval.py` has already replaced `BB` by
-    /// `BB.astype(np.float32)` (for the bounding-box filter) when it computes
-    /// `g`, so the minimum corner used is each `bb[0][i]` rounded to f32 and
-    /// widened back (f64 − f32 is f64 in numpy); the subtraction and the
-    /// division by `Res` are in f64, and `np.around` rounds half to even.
-    pub fn voxel(&self, p: [f64; 3]) -> Option<[usize; 3]> {
-        let mut g = [0usize; 3];
-        for i in 0..3 {
-            let min = f64::from(self.bb[0][i] as f32);
-            let r = ((p[i] - min) / self.res).round_ties_even();
-            // numpy casts to int32 and then compares; every in-range value
-            // is an exact small integer, and NaN / huge values fall outside
-            // either way.
-            if !(r >= 0.0 && r < self.dims[i] as f64) {
-                return None;
-            }
-            g[i] = r as usize;
-        }
-        Some(g)
-    }
-
-    /// True when `p` (mm) falls in an observed voxel: [`ObsMask::voxel`] is
-    /// `Some` and the mask there is non-zero (the reference's `in_obs`).
-    pub fn contains(&self, p: [f64; 3]) -> bool {
-        self.voxel(p)
-            .and_then(|[x, y, z]| self.mask.get(x + self.dims[0] * (y + self.dims[1] * z)))
-            .is_some_and(|&m| m != 0)
-    }
-}
-
-/// The bounding-box filter of the reference (`eval.py` step 5, `inbound`):
-/// true when on every axis `BB_min − patch ≤ p < BB_max + 2·patch` (mm).
-///
-/// As there, `BB` has been cast to float32 first, and because numpy keeps a
-/// float32 array float32 when a Python scalar is added, `BB_min − patch` and
-/// `BB_max + 2·patch` are computed and rounded in f32 (`patch` and `2·patch`
-/// rounded to f32 first); the comparison with the f64 point is in f64.
-pub fn bb_filter(p: [f64; 3], bb: &[[f64; 3]; 2], patch: f64) -> bool {
-    let lo_off = patch as f32;
-    let hi_off = (patch * 2.0) as f32;
-    (0..3).all(|i| {
-        let lo = f64::from(bb[0][i] as f32 - lo_off);
-        let hi = f64::from(bb[1][i] as f32 + hi_off);
-        p[i] >= lo && p[i] < hi
-    })
-}
 
 /// Reads an `ObsMask{scan}_10.mat`: variables `ObsMask` (3-D numeric or
 /// logical array, any non-zero value = observed), `BB` (2×3, finite) and
@@ -362,42 +294,6 @@ mod tests {
         assert!(!back.contains(at([5.5, 3.0, 2.0])));
         assert!(!back.contains([f64::NAN, 4.0, 100.0]));
         assert_eq!(back.voxel(at([3.2, 0.8, 2.1])), Some([3, 1, 2]));
-    }
-
-    #[test]
-    fn obs_mask_uses_bb_min_rounded_to_f32() {
-        // BB_min x = 0.1, Res = 1, p x = 3.6. numpy 2.4:
-        // np.around((3.6 - np.float32(0.1)) / 1.0) = 3.0 (the reference),
-        // np.around((3.6 - 0.1) / 1.0) = 4.0 (f64 BB would pick voxel 4).
-        let m = mask_with(&[[3, 0, 0]], [0.1, 0.0, 0.0], 1.0);
-        assert_eq!(m.voxel([3.6, 0.0, 0.0]), Some([3, 0, 0]));
-        assert!(m.contains([3.6, 0.0, 0.0]));
-    }
-
-    #[test]
-    fn bb_filter_boundaries() {
-        // numpy 2.4: BB = np.array([[0.1, -5, 0], [10.3, 5, 1]]).astype(np.float32);
-        // BB[:1] - 60.0 -> float32 [-59.900001525878906, -65, -60],
-        // BB[1:] + 120.0 -> float32 [130.3000030517578, 125, 121].
-        let bb = [[0.1, -5.0, 0.0], [10.3, 5.0, 1.0]];
-        let lo_x = -59.900001525878906;
-        let hi_x = 130.3000030517578;
-        let inside = |x: f64| bb_filter([x, 0.0, 0.0], &bb, 60.0);
-        assert!(inside(lo_x), "≤ at the minimum");
-        assert!(!inside(lo_x - 1e-12));
-        assert!(!inside(hi_x), "strict < at the maximum");
-        assert!(inside(hi_x - 1e-12));
-        // Points that f64 arithmetic would classify the other way
-        // (0.1 − 60 = −59.9 and 10.3 + 120 = 130.3 in f64).
-        assert!(inside(-59.9000001));
-        assert!(inside(130.3000001));
-        // Exactly representable bounds on the other axes.
-        assert!(bb_filter([0.0, -65.0, -60.0], &bb, 60.0));
-        assert!(!bb_filter([0.0, -65.0000001, 0.0], &bb, 60.0));
-        assert!(!bb_filter([0.0, 125.0, 0.0], &bb, 60.0));
-        assert!(bb_filter([0.0, 124.9999999, 120.9999999], &bb, 60.0));
-        assert!(!bb_filter([0.0, 0.0, 121.0], &bb, 60.0));
-        assert!(!bb_filter([f64::NAN, 0.0, 0.0], &bb, 60.0));
     }
 
     fn write_arrays(path: &Path, arrays: &[MatArray]) {

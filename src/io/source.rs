@@ -9,6 +9,15 @@ use std::path::Path;
 
 use crate::{Error, Result};
 
+/// Display form of a path argument in messages (`-` shown as `<stdin>` or `<stdout>`).
+pub fn shown(path: &Path, stdout: bool) -> String {
+    if path.as_os_str() == "-" {
+        if stdout { "<stdout>" } else { "<stdin>" }.to_string()
+    } else {
+        path.display().to_string()
+    }
+}
+
 /// The bytes of one input, memory-mapped from a file or read from stdin.
 pub struct Input {
     /// Display name used in error messages (`<stdin>` for `-`).

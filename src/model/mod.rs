@@ -4,8 +4,12 @@
 pub mod attributes;
 pub mod camera;
 pub mod gaussians;
+pub mod mask;
 pub mod mesh;
+pub mod obs_mask;
+pub mod orbit;
 pub mod point_cloud;
+pub mod scene;
 pub mod triangle_soup;
 
 /// SH coefficients of item `i`, coefficient-major with the DC term at k = 0,
@@ -25,6 +29,10 @@ pub fn sh_coeffs_of(dc: &[[f32; 3]], rest: &[f32], k: usize, i: usize) -> Vec<[f
 pub use attributes::{Column, Element, Extras, Property, ScalarData, ScalarType};
 pub use camera::{Camera, CameraModel};
 pub use gaussians::Gaussians;
+pub use mask::Mask;
 pub use mesh::Mesh;
+pub use obs_mask::ObsMask;
+pub use orbit::OrbitSpec;
 pub use point_cloud::PointCloud;
+pub use scene::{Scene, SceneKind};
 pub use triangle_soup::TriangleSoup;

@@ -1,4 +1,4 @@
-//! `clean`: mesh clean-up ([`crate::geom::clean`]) in the order SuGaR's V2
+//! `clean`: mesh clean-up ([`crate::geom::cleanup`]) in the order SuGaR's V2
 //! code runs Open3D's (duplicate vertices, degenerate faces, duplicate
 //! faces, non-manifold edges), then unreferenced vertices and the optional
 //! connected-component filters.
@@ -6,17 +6,13 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use serde::Serialize;
 use serde_json::json;
 
 use crate::cli::{Common, shown};
-use crate::geom::clean::{
-    ComponentFilter, filter_components, merge_duplicate_vertices, remove_degenerate_faces,
-    remove_duplicate_faces, remove_non_manifold_edges, remove_unreferenced_vertices,
-};
-use crate::io::any::{load_mesh, output_format, write_mesh_as};
+use crate::geom::clean::ComponentFilter;
+use crate::geom::cleanup::{CleanSteps, clean_mesh};
+use crate::io::any::{MeshWriteOptions, load_mesh, output_format, save_mesh};
 use crate::io::detect::FileFormat;
-use crate::model::Mesh;
 
 /// Arguments of `clean`.
 #[derive(Args, Debug, Clone)]
@@ -59,81 +55,6 @@ pub struct CleanArgs {
     pub common: Common,
 }
 
-/// Which steps to run.
-#[derive(Clone, Copy, Debug)]
-pub struct CleanSteps {
-    pub merge: bool,
-    pub degenerate: bool,
-    pub duplicates: bool,
-    pub nonmanifold: bool,
-    pub unreferenced: bool,
-    pub components: ComponentFilter,
-}
-
-impl Default for CleanSteps {
-    fn default() -> Self {
-        CleanSteps {
-            merge: true,
-            degenerate: true,
-            duplicates: true,
-            nonmanifold: true,
-            unreferenced: true,
-            components: ComponentFilter::default(),
-        }
-    }
-}
-
-/// What each step removed.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct CleanReport {
-    pub vertices_before: usize,
-    pub faces_before: usize,
-    pub merged_vertices: usize,
-    pub degenerate_faces: usize,
-    pub duplicate_faces: usize,
-    pub nonmanifold_faces: usize,
-    pub unreferenced_vertices: usize,
-    pub components: usize,
-    pub removed_components: usize,
-    pub removed_component_faces: usize,
-    pub vertices_after: usize,
-    pub faces_after: usize,
-}
-
-/// Runs the steps on a mesh.
-pub fn clean_mesh(mesh: &mut Mesh, s: &CleanSteps) -> CleanReport {
-    let mut r = CleanReport {
-        vertices_before: mesh.vertices.len(),
-        faces_before: mesh.faces.len(),
-        ..Default::default()
-    };
-    if s.merge {
-        r.merged_vertices = merge_duplicate_vertices(mesh);
-    }
-    if s.degenerate {
-        r.degenerate_faces = remove_degenerate_faces(mesh);
-    }
-    if s.duplicates {
-        r.duplicate_faces = remove_duplicate_faces(mesh);
-    }
-    if s.nonmanifold {
-        r.nonmanifold_faces = remove_non_manifold_edges(mesh);
-    }
-    let c = &s.components;
-    if c.keep_largest.is_some() || c.min_faces.is_some() || c.min_area_fraction.is_some() {
-        let (n, rc, rf) = filter_components(mesh, c);
-        r.components = n;
-        r.removed_components = rc;
-        r.removed_component_faces = rf;
-    }
-    if s.unreferenced {
-        r.unreferenced_vertices = remove_unreferenced_vertices(mesh);
-    }
-    r.vertices_after = mesh.vertices.len();
-    r.faces_after = mesh.faces.len();
-    r
-}
-
 /// `clean` entry point.
 pub fn run(args: CleanArgs) -> anyhow::Result<()> {
     args.common.init()?;
@@ -159,9 +80,9 @@ pub fn run(args: CleanArgs) -> anyhow::Result<()> {
             min_area_fraction: args.min_component_area,
         },
     };
-    let mut mesh = load_mesh(&args.input)?;
+    let mut mesh = load_mesh(&args.input, "clean")?;
     let r = clean_mesh(&mut mesh, &steps);
-    crate::io::write_output(&args.output, |w| write_mesh_as(w, &mesh, format))?;
+    save_mesh(&args.output, &mesh, format, &MeshWriteOptions::default())?;
     args.common.say(format!(
         "clean: {} faces / {} vertices -> {} / {} (merged {}, degenerate {}, duplicate {}, non-manifold {}, unreferenced {}, components removed {} of {})",
         r.faces_before,

@@ -9,7 +9,7 @@ use serde_json::json;
 
 use crate::cli::{Common, shown};
 use crate::geom::decimate::{Target, decimate};
-use crate::io::any::{load_mesh, output_format, write_mesh_as};
+use crate::io::any::{MeshWriteOptions, load_mesh, output_format, save_mesh};
 use crate::io::detect::FileFormat;
 
 /// Arguments of `decimate`.
@@ -52,10 +52,10 @@ pub fn run(args: DecimateArgs) -> anyhow::Result<()> {
         (_, _, Some(r)) => Target::Ratio(r),
         _ => anyhow::bail!("give --faces, --vertices or --ratio"),
     };
-    let mesh = load_mesh(&args.input)?;
+    let mesh = load_mesh(&args.input, "decimate")?;
     let (out, report) = decimate(&mesh, target)
         .with_context(|| format!("decimating {}", shown(&args.input, false)))?;
-    crate::io::write_output(&args.output, |w| write_mesh_as(w, &out, format))?;
+    save_mesh(&args.output, &out, format, &MeshWriteOptions::default())?;
     args.common.say(format!(
         "decimate: {} faces / {} vertices -> {} faces / {} vertices (relative error {:.2e})",
         report.faces_before,

@@ -10,7 +10,7 @@
 //! exact surface; the mean distance of the mesh vertices to the exact torus
 //! is reported too); one view of the splats and of the mesh is rendered.
 //!
-//! Part 2, the triangle tools ([`demo_soup`]): a torus tiled with solid,
+//! Part 2, the triangle tools ([`demo_soup`](crate::geom::synthetic::demo_soup)): a torus tiled with solid,
 //! opaque triangles (α = 0.95, σ = 0.5) coloured by angle with SH degree 3,
 //! plus "floaters" — random triangles that are either transparent (α = 0.2)
 //! or soft (σ = 3) — as training leaves them. The run writes the scene as a
@@ -23,7 +23,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, ensure};
 use clap::Args;
-use rand::{RngExt, SeedableRng};
 use serde_json::json;
 
 use std::time::Instant;
@@ -32,10 +31,17 @@ use glam::DVec3;
 use splatkit_render::gaussian::{self, RasterSettings};
 
 use crate::cli::Common;
+use crate::eval::chamfer::{GenericParams, SampleMode, chamfer_generic, mesh_cloud};
 use crate::geom::clean::ComponentFilter;
-use crate::geom::levelset::{LevelsetOptions, sample_levelset};
-use crate::geom::synthetic::Torus;
+use crate::geom::cleanup::{CleanSteps, clean_mesh};
+use crate::geom::levelset::{LevelsetOptions, sample_levelset, to_point_cloud};
+use crate::geom::orbit::orbit_cameras;
+use crate::geom::poisson::pipeline::{PipelineOptions, run_pipeline};
+use crate::geom::prune::{PruneParams, prune};
+use crate::geom::soup_mesh::{ExportParams, soup_to_mesh};
+use crate::geom::synthetic::{Torus, demo_soup};
 use crate::io::cameras::write_gs_json;
+use crate::io::describe::{describe, render_text};
 use crate::io::gltf::{GltfWriteOptions, write_gltf};
 use crate::io::image::{to_u8, write_png8};
 use crate::io::off::{OffWriteOptions, write_off};
@@ -43,76 +49,6 @@ use crate::io::ply;
 use crate::io::ply::points::write_points;
 use crate::io::ply::{Format, soup::write_soup};
 use crate::io::{torch_pt, write_output};
-use crate::model::gaussians::logit;
-use crate::model::{Extras, TriangleSoup};
-use crate::ops::chamfer::{GenericParams, SampleMode, chamfer_generic, mesh_cloud};
-use crate::ops::clean::{CleanSteps, clean_mesh};
-use crate::ops::export_off::{ExportParams, soup_to_mesh};
-use crate::ops::info::{describe, render_text};
-use crate::ops::poisson::{PipelineOptions, run_pipeline};
-use crate::ops::prune_triangles::{PruneParams, prune};
-use crate::ops::render::orbit_cameras;
-use crate::ops::splat2points::to_point_cloud;
-
-/// The demo scene: `(soup, number of torus triangles)`; floaters follow the torus.
-pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
-    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
-    let (nu, nv) = (segments.max(3), (segments / 2).max(3));
-    let (big_r, small_r) = (1.0f32, 0.35f32);
-    let point = |i: usize, j: usize| {
-        let u = i as f32 / nu as f32 * std::f32::consts::TAU;
-        let v = j as f32 / nv as f32 * std::f32::consts::TAU;
-        let w = big_r + small_r * v.cos();
-        [w * u.cos(), small_r * v.sin(), w * u.sin()]
-    };
-    let mut s = TriangleSoup {
-        sh_degree: 3,
-        active_sh_degree: 3,
-        extras: Extras::default(),
-        ..Default::default()
-    };
-    let push = |s: &mut TriangleSoup,
-                t: [[f32; 3]; 3],
-                opacity: f32,
-                sigma: f32,
-                rgb: [f32; 3],
-                rng: &mut rand_pcg::Pcg64Mcg| {
-        s.triangles.push(t);
-        s.opacity_raw.push(logit(opacity));
-        s.sigma_raw.push((sigma - 0.01).ln());
-        s.sh_dc.push(rgb.map(splatkit_render::sh::rgb_to_sh));
-        // Mild view dependence in the higher bands.
-        s.sh_rest
-            .extend((0..45).map(|_| rng.random_range(-0.05f32..0.05)));
-    };
-    for i in 0..nu {
-        for j in 0..nv {
-            // Indices wrap so the seams share bit-identical vertices.
-            let (a, b, c, d) = (
-                point(i, j),
-                point((i + 1) % nu, j),
-                point((i + 1) % nu, (j + 1) % nv),
-                point(i, (j + 1) % nv),
-            );
-            let hue = i as f32 / nu as f32;
-            let rgb = [
-                0.5 + 0.4 * (hue * std::f32::consts::TAU).cos(),
-                0.5 + 0.4 * (hue * std::f32::consts::TAU + 2.1).cos(),
-                0.5 + 0.4 * (hue * std::f32::consts::TAU + 4.2).cos(),
-            ];
-            push(&mut s, [a, b, c], 0.95, 0.5, rgb, &mut rng);
-            push(&mut s, [a, c, d], 0.95, 0.5, rgb, &mut rng);
-        }
-    }
-    let surface = s.len();
-    for k in 0..surface / 4 {
-        let centre: [f32; 3] = [0, 1, 2].map(|_| rng.random_range(-1.6f32..1.6));
-        let t = [0, 1, 2].map(|_| [0, 1, 2].map(|c| centre[c] + rng.random_range(-0.08f32..0.08)));
-        let (o, sig) = if k % 2 == 0 { (0.2, 0.5) } else { (0.95, 3.0) };
-        push(&mut s, t, o, sig, [0.8, 0.8, 0.8], &mut rng);
-    }
-    (s, surface)
-}
 
 /// Command-line arguments of `demo`.
 #[derive(Args, Debug, Clone)]

@@ -14,20 +14,19 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use glam::{DMat3, DVec3};
 use serde_json::json;
 use splatkit_render::gaussian::{self, RasterSettings, RenderOutput};
 use splatkit_render::loss::{psnr, ssim};
 use splatkit_render::{mesh as zbuffer, triangle};
 
+use crate::cli::orbit::OrbitArgs;
 use crate::cli::{Common, shown};
+use crate::geom::orbit::orbit_rings;
 use crate::io::cameras::npz::encode_npy_f32;
 use crate::io::cameras::read_cameras;
-use crate::io::detect::{FileFormat, PlyKind};
 use crate::io::image::{read_png_rgb, to_u8, write_png8, write_png16};
-use crate::io::ply::Header;
-use crate::io::{any, ply, read_input, torch_pt, write_output};
-use crate::model::{Camera, Mesh};
+use crate::io::{any, write_output};
+use crate::model::{self, Camera, Mesh, SceneKind};
 
 /// Which depth the splat renderers write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -36,78 +35,6 @@ pub enum DepthKind {
     Median,
     /// Σ w·z / Σ w.
     Expected,
-}
-
-/// Orbit cameras made up when a scene comes without a camera file: `N`
-/// views per ring evenly spaced in azimuth around the centre of the scene's
-/// central 96% box, one ring per elevation, looking at that centre.
-#[derive(Args, Debug, Clone)]
-pub struct OrbitArgs {
-    /// Orbit views per ring when no camera file is given (render: 8).
-    #[arg(long)]
-    pub orbit: Option<usize>,
-    /// Orbit image size WIDTHxHEIGHT.
-    #[arg(long, default_value = "800x600")]
-    pub size: String,
-    /// Orbit horizontal field of view, degrees.
-    #[arg(long, default_value_t = 50.0)]
-    pub fov: f64,
-    /// Orbit elevations above the horizon, degrees, comma-separated: one
-    /// ring of `--orbit` views each.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "15",
-        allow_hyphen_values = true
-    )]
-    pub elevation: Vec<f64>,
-    /// Orbit distance from the scene centre (default: the scene's central
-    /// 96% box fills the view).
-    #[arg(long)]
-    pub radius: Option<f64>,
-    /// World up direction for the orbit (COLMAP-trained scenes: 0,-1,0).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "0,-1,0",
-        allow_hyphen_values = true
-    )]
-    pub up: Vec<f64>,
-}
-
-impl OrbitArgs {
-    /// The orbit cameras around `points` with `n` views per ring; rings after
-    /// the first get names `orbit_r{ring}_{i}` so names stay unique.
-    pub fn cameras(&self, points: &[[f32; 3]], n: usize) -> anyhow::Result<Vec<Camera>> {
-        let (w, h) = self
-            .size
-            .split_once('x')
-            .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
-            .filter(|&(w, h)| w > 0 && h > 0 && (w as u64) * (h as u64) <= 1 << 28)
-            .with_context(|| format!("--size {:?}: expected WIDTHxHEIGHT", self.size))?;
-        if n == 0 {
-            bail!("--orbit must be at least 1 (or give --cameras)");
-        }
-        if self.up.len() != 3 {
-            bail!("--up takes three numbers x,y,z");
-        }
-        if self.elevation.is_empty() || self.elevation.iter().any(|e| e.is_nan() || e.abs() >= 90.0)
-        {
-            bail!("--elevation takes angles in (-90, 90) degrees");
-        }
-        let up = DVec3::new(self.up[0], self.up[1], self.up[2]);
-        let mut cams = Vec::with_capacity(n * self.elevation.len());
-        for (ring, &el) in self.elevation.iter().enumerate() {
-            let mut ring_cams = orbit_cameras(points, n, w, h, self.fov, el, self.radius, up)?;
-            if ring > 0 {
-                for (i, c) in ring_cams.iter_mut().enumerate() {
-                    c.name = format!("orbit_r{ring}_{i:03}");
-                }
-            }
-            cams.extend(ring_cams);
-        }
-        Ok(cams)
-    }
 }
 
 /// Arguments of `render`.
@@ -155,127 +82,52 @@ pub struct RenderArgs {
 }
 
 /// A scene ready to rasterise.
-enum Scene {
+enum Raster {
     Gaussians(gaussian::Gaussians3),
     Triangles(triangle::Triangles3),
     Mesh(Mesh),
 }
 
-impl Scene {
+impl Raster {
     fn kind(&self) -> &'static str {
         match self {
-            Scene::Gaussians(_) => "gaussians",
-            Scene::Triangles(_) => "triangles",
-            Scene::Mesh(_) => "mesh",
+            Raster::Gaussians(_) => "gaussians",
+            Raster::Triangles(_) => "triangles",
+            Raster::Mesh(_) => "mesh",
         }
     }
 
     fn len(&self) -> usize {
         match self {
-            Scene::Gaussians(g) => g.len(),
-            Scene::Triangles(t) => t.len(),
-            Scene::Mesh(m) => m.faces.len(),
+            Raster::Gaussians(g) => g.len(),
+            Raster::Triangles(t) => t.len(),
+            Raster::Mesh(m) => m.faces.len(),
         }
     }
 
     /// Points that stand for the scene's extent.
     fn points(&self) -> Vec<[f32; 3]> {
         match self {
-            Scene::Gaussians(g) => g.means.clone(),
-            Scene::Triangles(t) => t.vertices.iter().flatten().copied().collect(),
-            Scene::Mesh(m) => m.vertices.clone(),
+            Raster::Gaussians(g) => g.means.clone(),
+            Raster::Triangles(t) => t.vertices.iter().flatten().copied().collect(),
+            Raster::Mesh(m) => m.vertices.clone(),
         }
     }
 }
 
-fn load_scene(path: &Path) -> anyhow::Result<Scene> {
-    let input = read_input(path)?;
-    let name = input.name.clone();
-    let bytes: &[u8] = &input;
-    let fmt =
-        FileFormat::detect(path, bytes).with_context(|| format!("{name}: unknown file format"))?;
-    Ok(match fmt {
-        FileFormat::TorchPt => {
-            Scene::Triangles(torch_pt::parse_triangle_checkpoint(&name, bytes)?.to_raster())
-        }
-        FileFormat::Ply => match PlyKind::of(&Header::parse(&name, bytes)?) {
-            PlyKind::Gaussians | PlyKind::CompressedGaussians => {
-                Scene::Gaussians(ply::gaussians::parse_gaussians(&name, bytes)?.to_raster())
-            }
-            PlyKind::TriangleSoup => {
-                Scene::Triangles(ply::soup::parse_soup(&name, bytes)?.to_raster())
-            }
-            _ => Scene::Mesh(ply::mesh::parse_mesh(&name, bytes)?),
-        },
-        _ => Scene::Mesh(any::load_mesh(path)?),
+/// The scene file, through the common loader, ready to rasterise.
+fn load_scene(path: &Path) -> anyhow::Result<Raster> {
+    let accepts = [
+        SceneKind::Gaussians,
+        SceneKind::TriangleSoup,
+        SceneKind::Mesh,
+    ];
+    Ok(match any::load_kinds(path, "render", &accepts)? {
+        model::Scene::Gaussians(g) => Raster::Gaussians(g.to_raster()),
+        model::Scene::TriangleSoup(t) => Raster::Triangles(t.to_raster()),
+        model::Scene::Mesh(m) => Raster::Mesh(m),
+        model::Scene::PointCloud(_) => unreachable!("load_kinds returns an accepted kind"),
     })
-}
-
-/// Orbit cameras around the central 96% box of `points`.
-#[allow(clippy::too_many_arguments)]
-pub fn orbit_cameras(
-    points: &[[f32; 3]],
-    n: usize,
-    width: u32,
-    height: u32,
-    fov_deg: f64,
-    elevation_deg: f64,
-    radius: Option<f64>,
-    up: DVec3,
-) -> anyhow::Result<Vec<Camera>> {
-    let finite: Vec<&[f32; 3]> = points
-        .iter()
-        .filter(|p| p.iter().all(|v| v.is_finite()))
-        .collect();
-    if finite.is_empty() {
-        bail!("the scene has no finite points to orbit");
-    }
-    let mut lo = [0.0f64; 3];
-    let mut hi = [0.0f64; 3];
-    for k in 0..3 {
-        let mut v: Vec<f64> = finite.iter().map(|p| p[k] as f64).collect();
-        v.sort_by(f64::total_cmp);
-        lo[k] = v[(v.len() as f64 * 0.02) as usize];
-        hi[k] = v[((v.len() as f64 * 0.98) as usize).min(v.len() - 1)];
-    }
-    let centre = DVec3::new(lo[0] + hi[0], lo[1] + hi[1], lo[2] + hi[2]) * 0.5;
-    let half = (DVec3::from(hi) - DVec3::from(lo)).length() * 0.5;
-    let up = up
-        .try_normalize()
-        .context("--up must be a non-zero vector")?;
-    let fov = fov_deg.to_radians();
-    if !(fov > 0.0 && fov < std::f64::consts::PI) {
-        bail!("--fov must lie in (0, 180) degrees");
-    }
-    let dist = radius.unwrap_or(1.3 * half.max(1e-6) / (0.5 * fov).tan());
-    // two directions spanning the horizon plane
-    let any = if up.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
-    let h0 = (any - up * any.dot(up)).normalize();
-    let h1 = up.cross(h0);
-    let el = elevation_deg.to_radians();
-    let f = 0.5 * width as f64 / (0.5 * fov).tan();
-    Ok((0..n)
-        .map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / n as f64;
-            let dir = (h0 * a.cos() + h1 * a.sin()) * el.cos() + up * el.sin();
-            let eye = centre + dir * dist;
-            let fwd = (centre - eye).normalize();
-            let right = (-up).cross(fwd).normalize();
-            let down = fwd.cross(right);
-            let (r, t) = Camera::pose_from_c2w(DMat3::from_cols(right, down, fwd), eye);
-            Camera::pinhole(
-                format!("orbit_{i:03}"),
-                width,
-                height,
-                f,
-                f,
-                width as f64 / 2.0,
-                height as f64 / 2.0,
-                r,
-                t,
-            )
-        })
-        .collect())
 }
 
 /// A file-name stem for a camera: its name without folders or extension.
@@ -341,11 +193,11 @@ fn shade_mesh(m: &Mesh, z: &zbuffer::MeshRender, bg: [f32; 3]) -> RenderOutput {
     out
 }
 
-fn render_view(scene: &Scene, cam: &Camera, s: &RasterSettings) -> RenderOutput {
+fn render_view(scene: &Raster, cam: &Camera, s: &RasterSettings) -> RenderOutput {
     match scene {
-        Scene::Gaussians(g) => gaussian::render(g, cam, s),
-        Scene::Triangles(t) => triangle::render(t, cam, s),
-        Scene::Mesh(m) => shade_mesh(
+        Raster::Gaussians(g) => gaussian::render(g, cam, s),
+        Raster::Triangles(t) => triangle::render(t, cam, s),
+        Raster::Mesh(m) => shade_mesh(
             m,
             &zbuffer::render(&m.vertices, &m.faces, cam, s.near),
             s.background,
@@ -466,9 +318,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
     let cams = match &args.cameras {
         Some(p) => read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?,
-        None => args
-            .orbit
-            .cameras(&scene.points(), args.orbit.orbit.unwrap_or(8))?,
+        None => orbit_rings(
+            &scene.points(),
+            &args.orbit.spec(args.orbit.orbit.unwrap_or(8))?,
+        )?,
     };
     for c in &cams {
         c.require_pinhole()

@@ -8,14 +8,15 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
+use crate::cli::orbit::OrbitArgs;
 use crate::cli::{Common, check_binary_stdout, shown};
-use crate::geom::levelset::{DepthSource, LevelPoints, LevelsetOptions, sample_levelset};
+use crate::geom::levelset::{DepthSource, LevelsetOptions, sample_levelset, to_point_cloud};
+use crate::geom::orbit::orbit_rings;
 use crate::geom::splat_points::{centers, depth_points};
+use crate::io::any::{load_gaussians, save_points};
 use crate::io::cameras::read_cameras;
-use crate::io::ply::{Format, points::write_points};
-use crate::io::{ply, read_input, write_output};
-use crate::model::{Camera, Column, PointCloud, Property, ScalarData};
-use crate::ops::render::OrbitArgs;
+use crate::io::ply::Format;
+use crate::model::Camera;
 use splatkit_render::gaussian::Gaussians3;
 
 /// How points are made.
@@ -174,27 +175,6 @@ pub fn training_views(mut cams: Vec<Camera>, n: usize) -> Vec<Camera> {
         .collect()
 }
 
-/// The output cloud, with `level` / `camera` properties when asked.
-pub fn to_point_cloud(p: LevelPoints, provenance: bool) -> PointCloud {
-    let mut pc = PointCloud {
-        positions: p.positions,
-        normals: Some(p.normals),
-        colors: Some(p.colors),
-        ..Default::default()
-    };
-    if provenance {
-        pc.extras.item.push(Property {
-            name: "level".into(),
-            data: Column::Scalar(ScalarData::F32(p.level)),
-        });
-        pc.extras.item.push(Property {
-            name: "camera".into(),
-            data: Column::Scalar(ScalarData::U32(p.camera)),
-        });
-    }
-    pc
-}
-
 /// How many Gaussians with opacity above `min_opacity` have their centre
 /// inside the image of at least one camera, in front of its near plane.
 pub fn seen_by_any(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> usize {
@@ -234,8 +214,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     if cam_path.is_some() && args.orbit.orbit.is_some() {
         bail!("give either a camera file (--cameras or a model folder) or --orbit, not both");
     }
-    let input = read_input(&scene)?;
-    let g = ply::gaussians::parse_gaussians(&input.name, &input)
+    let g = load_gaussians(&scene, "splat2points")
         .with_context(|| format!("reading {}", shown(&scene, false)))?
         .to_raster();
     let (cams, n_all, cam_source) = match (&cam_path, args.orbit.orbit) {
@@ -254,7 +233,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
             (keep, n_all, p.display().to_string())
         }
         (None, Some(n)) => {
-            let cams = args.orbit.cameras(&g.means, n)?;
+            let cams = orbit_rings(&g.means, &args.orbit.spec(n)?)?;
             let n_all = cams.len();
             (cams, n_all, format!("orbit ({n_all} views)"))
         }
@@ -320,9 +299,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
         );
     }
     let pc = to_point_cloud(points, args.provenance);
-    write_output(&args.output, |w| {
-        write_points(w, &pc, Format::BinaryLittleEndian)
-    })?;
+    save_points(&args.output, &pc, Format::BinaryLittleEndian)?;
     args.common.say(format!(
         "splat2points: {} Gaussians, {} of {n_all} views -> {n} points ({:?}, {:.1} s)",
         g.len(),

@@ -20,6 +20,7 @@ pub mod density;
 pub mod extract;
 pub mod grid;
 pub mod octree_extract;
+pub mod pipeline;
 pub mod samples;
 pub mod system;
 #[cfg(test)]

@@ -14,7 +14,7 @@
 use std::io::Write;
 
 use super::common::sh_degree_from_rest;
-use super::header::{ElementDef, Format, PropertyDef, PropertyKind, write_header};
+use super::header::{ElementDef, Format, Header, PropertyDef, PropertyKind, write_header};
 use super::read::{PlyReader, RawElement, prop_offsets};
 use super::write::{element_def, write_element};
 use crate::io::source::werr;
@@ -140,16 +140,29 @@ fn empty(n: usize, degree: usize, normals: bool) -> Gaussians {
     }
 }
 
+fn vertex_def<'h>(name: &str, header: &'h Header) -> Result<&'h ElementDef> {
+    header
+        .element("vertex")
+        .ok_or_else(|| Error::format(name, "no 'vertex' element: not a Gaussian splat PLY"))
+}
+
+/// Checks, from the header alone, that a PLY has the 3DGS vertex layout;
+/// the error says which properties are missing or malformed.
+pub fn check_layout(name: &str, bytes: &[u8]) -> Result<()> {
+    let header = Header::parse(name, bytes)?;
+    schema(name, vertex_def(name, &header)?).map(|_| ())
+}
+
 /// Parses a 3DGS PLY from bytes; `name` is used in errors.
 pub fn parse_gaussians(name: &str, bytes: &[u8]) -> Result<Gaussians> {
     let reader = PlyReader::new(name, bytes)?;
+    let def = vertex_def(name, &reader.header)?;
     let vi = reader
         .header
         .elements
         .iter()
         .position(|e| e.name == "vertex")
-        .ok_or_else(|| Error::format(name, "no 'vertex' element: not a Gaussian splat PLY"))?;
-    let def = &reader.header.elements[vi];
+        .expect("vertex_def found it");
     let (degree, normals) = schema(name, def)?;
     let slots: Vec<usize> = slot_names(degree, normals)
         .iter()

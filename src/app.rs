@@ -1,5 +1,6 @@
-//! Entry points of the binaries: each per-command binary and the umbrella
-//! `splatkit` binary parse the same argument structs and call the same `run`.
+//! The command table, above the ops: each per-command binary and the
+//! umbrella `splatkit` binary parse the same argument structs and call the
+//! same `run`. `cli` keeps only the conventions the commands share.
 
 use clap::{Parser, Subcommand};
 
@@ -52,7 +53,7 @@ pub enum Command {
 /// `main` of the umbrella binary.
 pub fn splatkit_main() -> ! {
     let cli = Cli::parse();
-    super::exit_with(match cli.command {
+    crate::cli::exit_with(match cli.command {
         Command::Info(a) => info::run(a),
         Command::PruneTriangles(a) => prune_triangles::run(a),
         Command::ExportOff(a) => export_off::run(a),
@@ -76,7 +77,7 @@ macro_rules! single_command {
                 #[command(flatten)]
                 args: $args,
             }
-            super::exit_with($run(One::parse().args))
+            crate::cli::exit_with($run(One::parse().args))
         }
     };
 }
