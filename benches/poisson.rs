@@ -1,10 +1,9 @@
 //! `poisson` / `decimate` / `clean` benchmarks at real scale, one process.
 //!
-//! The scene is the one of `reference/poisson.md` §4.1, generated here:
-//! area-proportional oriented samples on a unit sphere, a torus (R 2, r 0.5)
-//! and an open 9.5 × 8 plane patch, Gaussian noise σ = 0.002 along the
-//! normal (`scripts/compare/gen_poisson_scene.py` writes the same kind of
-//! scene for Open3D).
+//! The scene, generated here: area-proportional oriented samples on a unit
+//! sphere, a torus (R 2, r 0.5) and an open 9.5 × 8 plane patch, Gaussian
+//! noise σ = 0.002 along the normal (`scripts/compare/gen_poisson_scene.py`
+//! writes the same kind of scene for Open3D).
 //!
 //! Modes (first argument after `--`):
 //! - `depths` (default): 1M points at depths 8, 9, 10, 11, then the SuGaR

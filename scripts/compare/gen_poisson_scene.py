@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Generates an oriented point cloud (binary little-endian PLY, float x y z nx ny nz)
-for Poisson benchmarks and comparisons, like the scene of reference/poisson.md 4.1:
+for Poisson benchmarks and comparisons, the scene of benches/poisson.rs:
 area-proportional samples on a unit sphere (centre (0,0,1.5)), a torus (R=2, r=0.5,
 centre z=0.6) and, unless --closed-only, an open 9.5 x 8 plane patch at z=0;
 Gaussian position noise along the normal (sigma --noise, default 0.002); outward

@@ -1,5 +1,5 @@
 //! 2DGS mask culling of a mesh before the DTU evaluation
-//! (`scripts/eval_dtu/evaluate_single_scene.py::cull_scan`; `eval_tsdf.md` §1.2).
+//! (2DGS `scripts/eval_dtu/evaluate_single_scene.py::cull_scan`).
 //!
 //! For every view i (one per mask; the camera file must have at least as
 //! many views): project each vertex of the mesh (in the normalised frame)

@@ -1,5 +1,5 @@
 //! The DTU Chamfer protocol (DTUeval-python `eval.py` as 2DGS / Triangle
-//! Splatting run it; `eval_tsdf.md` §1.3), deterministic.
+//! Splatting run it; `jzhangbs/DTUeval-python`, mesh mode), deterministic.
 //!
 //! Steps, all in millimetres:
 //! 1. prediction points: in mesh mode all mesh vertices (unreferenced ones
@@ -292,19 +292,7 @@ pub fn vis_color(d: f64, params: &DtuParams) -> [u8; 3] {
 mod tests {
     use super::*;
 
-    /// 5×4×3 mask with the voxels `set` observed.
-    fn mask_with(set: &[[usize; 3]], bb_min: [f64; 3], res: f64) -> ObsMask {
-        let mut mask = vec![0u8; 60];
-        for &[x, y, z] in set {
-            mask[x + 5 * (y + 4 * z)] = 1;
-        }
-        ObsMask {
-            mask,
-            dims: [5, 4, 3],
-            bb: [bb_min, [bb_min[0] + 2.0, bb_min[1] + 1.5, bb_min[2] + 1.0]],
-            res,
-        }
-    }
+    use crate::model::obs_mask::mask_with;
 
     #[test]
     fn obs_mask_uses_bb_min_rounded_to_f32() {

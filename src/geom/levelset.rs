@@ -1,5 +1,6 @@
-//! SuGaR's level-set sampling of a 3DGS scene (`sugar.md` §3.1–3.2), on the
-//! CPU: oriented, coloured points on {d = λ} of the Gaussian density
+//! SuGaR's level-set sampling of a 3DGS scene (Guédon & Lepetit, CVPR 2024;
+//! `sugar_extractors/coarse_mesh.py::compute_level_surface_points_from_camera_fast`),
+//! on the CPU: oriented, coloured points on {d = λ} of the Gaussian density
 //! d(p) = min(1, Σ_g α_g exp(−½ (p−μ_g)ᵀ Σ_g⁻¹ (p−μ_g))).
 //!
 //! Per camera:
@@ -20,7 +21,7 @@
 //!    later exceeds it; the first crossing is interpolated linearly;
 //! 5. normal: ∇d at the point (same neighbours), normalised and turned
 //!    toward the camera (SuGaR's own sign points into the surface, which
-//!    turns Poisson meshes inside out, `sugar.md` §7.2);
+//!    turns Poisson meshes inside out);
 //! 6. colour: the pixel of a DC-only render (black background).
 //!
 //! At most ⌊max_points / cameras⌋ + 1 points per view and level are kept (the

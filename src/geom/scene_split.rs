@@ -1,6 +1,6 @@
 //! Foreground / background split of a scene and the automatic Poisson depth,
-//! as SuGaR's code (not its paper) and Frosting do them (reference notes
-//! `sugar.md` §3.3–3.4).
+//! as SuGaR's code (`sugar_extractors/coarse_mesh.py`, not its supplement §9)
+//! and Frosting (`frosting_extractors/coarse_shell.py`) do them.
 //!
 //! Camera split: c̄ = mean of the camera centres, R = fg_factor · max‖c_i − c̄‖
 //! (fg_factor 1.1, the 3DGS scene radius). Foreground = the axis-aligned

@@ -2,7 +2,7 @@
 //! Splatting's `create_off.py` makes one for game engines (used by
 //! `export-off` and the demo).
 //!
-//! Soup colours (reference behaviour, `triangle_splatting.md` §4.1): SH of all
+//! Soup colours (reference behaviour, `create_off.py`): SH of all
 //! stored bands evaluated once per triangle at its centroid, view direction
 //! `normalize(centroid − eye)` with the eye at the world origin unless
 //! `--view-from` says otherwise; `rgb = clamp(SH + 0.5, 0, 1)`, 8-bit value

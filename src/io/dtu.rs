@@ -209,19 +209,7 @@ fn scalar(arrays: &[MatArray], var: &str, file: &str) -> Result<f64> {
 mod tests {
     use super::*;
 
-    /// 5×4×3 mask with the voxels `set` observed.
-    fn mask_with(set: &[[usize; 3]], bb_min: [f64; 3], res: f64) -> ObsMask {
-        let mut mask = vec![0u8; 60];
-        for &[x, y, z] in set {
-            mask[x + 5 * (y + 4 * z)] = 1;
-        }
-        ObsMask {
-            mask,
-            dims: [5, 4, 3],
-            bb: [bb_min, [bb_min[0] + 2.0, bb_min[1] + 1.5, bb_min[2] + 1.0]],
-            res,
-        }
-    }
+    use crate::model::obs_mask::mask_with;
 
     /// Round half to even written out independently of `round_ties_even`:
     /// the integer within 0.5, the even one on an exact tie.

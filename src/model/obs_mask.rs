@@ -18,3 +18,19 @@ pub struct ObsMask {
     /// The `Res` variable: voxel size in millimetres.
     pub res: f64,
 }
+
+/// Test support: a 5×4×3 mask with the voxels `set` observed, minimum
+/// corner `bb_min`, voxel size `res`.
+#[cfg(test)]
+pub(crate) fn mask_with(set: &[[usize; 3]], bb_min: [f64; 3], res: f64) -> ObsMask {
+    let mut mask = vec![0u8; 60];
+    for &[x, y, z] in set {
+        mask[x + 5 * (y + 4 * z)] = 1;
+    }
+    ObsMask {
+        mask,
+        dims: [5, 4, 3],
+        bb: [bb_min, [bb_min[0] + 2.0, bb_min[1] + 1.5, bb_min[2] + 1.0]],
+        res,
+    }
+}

@@ -1,5 +1,5 @@
 //! The kernel-density depth estimate of screened Poisson reconstruction
-//! (reference notes `poisson.md` §1.4).
+//! (PoissonRecon `Src/FEMTree.WeightedSamples.inl`).
 //!
 //! At every depth k ≤ K (K = D − 2, the "kernel depth") the samples are
 //! aggregated per level-k cell (summed weight at the weighted centroid) and

@@ -4,7 +4,7 @@
 //! sample's kernel-density depth, screening toward ½ at per-node sample
 //! centroids, one cascadic coarse-to-fine Gauss–Seidel pass, iso-value = the
 //! weighted mean of χ at the samples, and per-vertex `density` = the depth
-//! estimate. See `reference/poisson.md` and the module docs of each step:
+//! estimate. See `docs/poisson.md` and the module docs of each step:
 //!
 //! - [`samples`]: normalisation into the unit cube and leaf merging;
 //! - [`density`]: the kernel-density depth estimate;

@@ -1,5 +1,6 @@
 //! The screened Poisson system on a sparse multilevel grid, and its cascadic
-//! solve (reference notes `poisson.md` §1.5–1.9, design §2.2).
+//! solve (Kazhdan & Hoppe 2013; PoissonRecon `FEMTree::solveSystem`,
+//! `Src/FEMTree.System.inl`).
 //!
 //! Unknowns are coefficients of degree-1 (trilinear hat) functions on the
 //! nodes of levels 0..=D. Levels up to `full_depth` are complete; a finer
