@@ -21,14 +21,19 @@ Writes into OUTDIR (created if needed), with a fixed seed:
                    "extras" (per-triangle columns by name), and "exact"
                    (bit-exact comparison) or a tolerance.
 
-Then: SPLATKIT_PT_FIXTURES=OUTDIR cargo test --test torch_pt
-That test also writes OUTDIR/from_splatkit.pt (splatkit's writer) and
-from_splatkit.json; `--check OUTDIR` loads the .pt with torch.load
-(weights_only=True, so only allow-listed globals are accepted) and compares
-every value bit for bit, exiting 1 on a mismatch.
+The committed copies live in testdata/pt/ (written by
+scripts/make_fixtures.py, which runs this with OUTDIR = testdata/pt; see
+testdata/README.md for the torch version) and are read on every
+`cargo test --test torch_pt`.
 
-When torch is not installed this prints so and exits 0 (nothing to check).
-The generated files are not committed.
+The other direction: SPLATKIT_PT_FIXTURES=DIR cargo test --test torch_pt
+writes DIR/from_splatkit.pt (splatkit's writer) and from_splatkit.json;
+`--check DIR` loads the .pt with torch.load (weights_only=True, so only
+allow-listed globals are accepted) and compares every value bit for bit,
+exiting 1 on a mismatch.
+
+pip install torch (the CPU wheel is enough). When torch is not installed
+this prints so and exits 0 (nothing written or checked).
 """
 
 import collections
@@ -67,8 +72,8 @@ def check(torch, folder):
     return 1 if bad else 0
 
 
-def main():
-    args = sys.argv[1:]
+def main(argv=None):
+    args = list(sys.argv[1:] if argv is None else argv)
     check_mode = bool(args) and args[0] == "--check"
     if check_mode:
         args = args[1:]

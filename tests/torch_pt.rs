@@ -1,8 +1,10 @@
 //! Triangle Splatting checkpoint reader (`splatkit::io::torch_pt`):
 //! allocation bounds on corrupted input (a tracking global allocator records
-//! the largest single allocation of the thread), and checkpoints written by
-//! real PyTorch when `SPLATKIT_PT_FIXTURES` names a folder made by
-//! `scripts/make_pt_fixtures.py`.
+//! the largest single allocation of the thread), and the checkpoints written
+//! by real PyTorch committed in `testdata/pt/` (by
+//! `scripts/make_pt_fixtures.py`; always read). When `SPLATKIT_PT_FIXTURES`
+//! names a folder, a checkpoint written by splatkit is also left there for the
+//! script's `--check` mode (torch.load of our writer's output).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -164,17 +166,12 @@ fn compare(file: &str, what: &str, got: &[f32], want: &[f64], exact: bool, tol: 
     }
 }
 
-/// Checkpoints written by PyTorch itself (see scripts/make_pt_fixtures.py),
-/// compared with the values PyTorch reported; then writes
-/// `from_splatkit.pt` / `.json` into the same folder for the script's
-/// `--check` mode (torch.load of our writer's output). Skips when
-/// `SPLATKIT_PT_FIXTURES` is not set.
+/// Checkpoints written by PyTorch itself (`testdata/pt/`, see
+/// scripts/make_pt_fixtures.py), compared with the values PyTorch reported
+/// in `testdata/pt/expected.json`; every truncated copy is an error.
 #[test]
 fn pytorch_written_fixtures() {
-    let Some(dir) = std::env::var_os("SPLATKIT_PT_FIXTURES").map(PathBuf::from) else {
-        eprintln!("skipped: SPLATKIT_PT_FIXTURES is not set (see scripts/make_pt_fixtures.py)");
-        return;
-    };
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/testdata/pt"));
     let text = std::fs::read_to_string(dir.join("expected.json")).unwrap();
     let expected: serde_json::Value = serde_json::from_str(&text).unwrap();
     let cases = expected.as_object().unwrap();
@@ -248,8 +245,21 @@ fn pytorch_written_fixtures() {
         }
         eprintln!("{file}: {} triangles match", soup.len());
     }
-    // The other direction: a checkpoint written by splatkit, with its values,
-    // for `make_pt_fixtures.py --check DIR` to load with torch.load.
+}
+
+/// The other direction: when `SPLATKIT_PT_FIXTURES` names a folder, writes a
+/// checkpoint made by splatkit there (`from_splatkit.pt`) with its values
+/// (`from_splatkit.json`), for `make_pt_fixtures.py --check DIR` to load with
+/// torch.load. Without the variable there is nothing to hand over.
+#[test]
+fn checkpoint_for_torch_load_check() {
+    let Some(dir) = std::env::var_os("SPLATKIT_PT_FIXTURES").map(PathBuf::from) else {
+        eprintln!(
+            "SPLATKIT_PT_FIXTURES is not set: no checkpoint left for make_pt_fixtures.py --check"
+        );
+        return;
+    };
+    std::fs::create_dir_all(&dir).unwrap();
     let mut s = soup(9, 3);
     s.active_sh_degree = 2;
     s.extras.item.push(splatkit::model::attributes::Property {

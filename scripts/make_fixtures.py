@@ -1,0 +1,677 @@
+#!/usr/bin/env python3
+"""Write testdata/: small files written by the tools splatkit's users already
+run, plus the values a reader must find in them (testdata/expected.json),
+computed here by those tools and numpy, never by splatkit.
+
+Usage (from the repository root):
+
+    python3 -m venv /tmp/fxvenv
+    /tmp/fxvenv/bin/pip install numpy scipy open3d trimesh pymeshlab pycolmap plyfile torch
+    /tmp/fxvenv/bin/python scripts/make_fixtures.py [TESTDATA_DIR]
+
+TESTDATA_DIR defaults to testdata/ at the repository root. Everything is
+deterministic (fixed seeds); re-running rewrites the same bytes except the
+creation date in the .mat headers. It also runs
+scripts/make_pt_fixtures.py into TESTDATA_DIR/pt and writes
+TESTDATA_DIR/README.md (one line per file: script, tool and version).
+Open3D needs libusb-1.0 (Debian: apt-get install libusb-1.0-0).
+
+What is written, and checked by tests/fixtures.rs:
+  mat/       scipy.io.savemat, the DTU evaluation layout: ObsMask (3-D
+             logical), BB (2x3), Res (scalar); Plane: P (4x1); compressed
+             (do_compression=True, as MATLAB -v7) and uncompressed
+  npz/       numpy np.savez / np.savez_compressed, the NeuS/IDR
+             cameras_sphere.npz layout (world_mat_i, scale_mat_i)
+  mesh/      Open3D, trimesh and pymeshlab PLY (ASCII and binary) and OBJ of
+             a coloured icosphere with normals and of a coloured oriented
+             point cloud; a GLB written by trimesh
+  colmap/    a COLMAP text model written by pycolmap (write_text)
+  gaussians/ a 3DGS PLY written with plyfile as graphdeco's save_ply does
+
+Each entry of expected.json says how its floats compare: "exact" (the f32
+the tool stored, or the f64 it stored rounded to f32 by the reader) or a
+tolerance |got - want| <= abs + rel * |want| matching the precision the tool
+prints, with a note naming that precision. Every file is read back here with
+the tool that wrote it and checked against the same values and tolerance.
+"""
+
+import json
+import os
+import sys
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+# Tolerances for ASCII text. A value printed with d significant digits is
+# within 0.5e-(d-1) relative of the number; the reader then rounds it to f32
+# (2^-24 relative). F32_REL covers one f32 rounding step each way.
+F32_REL = 1.2e-7
+G6 = {"exact": False, "rel": 5e-6 + F32_REL, "abs": 1e-12, "note": "printed with %g (6 significant digits)"}
+G16 = {"exact": False, "rel": F32_REL, "abs": 1e-12, "note": "printed with 16-17 significant digits, then rounded to f32"}
+F8 = {"exact": False, "rel": F32_REL, "abs": 5.1e-9, "note": "printed with %.8f (8 decimals)"}
+EXACT = {"exact": True, "rel": 0.0, "abs": 0.0, "note": "binary: the reader's f32 equals the stored value rounded to f32"}
+
+
+def rows(a, kind=float):
+    """A 2-D array as nested lists of Python numbers (f64 repr is exact)."""
+    return [[kind(x) for x in r] for r in np.asarray(a)]
+
+
+def close(got, want, tol, what):
+    """Check a tool's read-back against the expected values with a tolerance."""
+    got = np.asarray(got, dtype=np.float64)
+    want = np.asarray(want, dtype=np.float64)
+    assert got.shape == want.shape, f"{what}: shape {got.shape} != {want.shape}"
+    if tol["exact"]:
+        ok = np.array_equal(got.astype(np.float32), want.astype(np.float32))
+    else:
+        ok = np.all(np.abs(got - want) <= tol["abs"] + tol["rel"] * np.abs(want))
+    assert ok, f"{what}: read-back differs beyond {tol}"
+
+
+# --------------------------------------------------------------------------
+# Shapes shared by the mesh writers.
+
+def icosphere():
+    """A coloured icosphere (162 vertices, 320 faces), off-centre and scaled
+    so that coordinates are not round numbers."""
+    import trimesh
+
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    v = np.asarray(ico.vertices) * 1.75 + np.array([0.25, -0.5, 2.125])
+    rng = np.random.default_rng(10)
+    rgb = rng.integers(0, 256, (len(v), 3))
+    return v, np.asarray(ico.faces), rgb
+
+
+def oriented_points():
+    """96 points with unit normals and colours."""
+    rng = np.random.default_rng(11)
+    p = rng.normal(size=(96, 3)) * np.array([2.0, 1.0, 0.5]) + np.array([1.0, 2.0, -3.0])
+    n = rng.normal(size=(96, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    rgb = rng.integers(0, 256, (96, 3))
+    return p, n, rgb
+
+
+# Arrays that several files share (the same in-memory mesh saved in several
+# formats) are stored once in expected.json's "arrays" and referenced as
+# "@name" from the file entries.
+ARRAYS = {}
+
+
+def shared(name, value):
+    """`value` (nested lists) stored once; returns its "@name" reference."""
+    text = json.dumps(value)
+    for k, v in ARRAYS.items():
+        if json.dumps(v) == text:
+            return "@" + k
+    assert name not in ARRAYS, name
+    ARRAYS[name] = value
+    return "@" + name
+
+
+def mesh_entry(writer, version, v, f, n, rgba, tol, scalars=None):
+    w = writer.lower()
+    e = {
+        "kind": "mesh",
+        "writer": f"{writer} {version}",
+        "vertices": shared("icosphere_vertices", rows(v)),
+        "faces": shared("icosphere_faces", rows(f, int)),
+        "normals": shared(f"icosphere_normals_{w}", rows(n)) if n is not None else None,
+        "colors": shared("icosphere_colors", rows(rgba, int)) if rgba is not None else None,
+        "tol": tol,
+    }
+    if scalars:
+        e["vertex_scalars"] = {k: shared(f"icosphere_{k}_{w}", [float(x) for x in s]) for k, s in scalars.items()}
+    return e
+
+
+def points_entry(writer, version, p, n, rgb, tol):
+    w = writer.lower()
+    return {
+        "kind": "points",
+        "writer": f"{writer} {version}",
+        "positions": shared("points_positions", rows(p)),
+        "normals": shared("points_normals", rows(n)) if n is not None else None,
+        "colors": shared("points_colors", rows(rgb, int)) if rgb is not None else None,
+        "tol": tol,
+    }
+
+
+def u8_from_unit(c):
+    """0-1 colours (as the tools hold them) to the 0-255 they stand for."""
+    return np.rint(np.asarray(c) * 255.0).astype(int)
+
+
+# --------------------------------------------------------------------------
+
+def open3d_files(out, exp, readme):
+    import open3d as o3d
+
+    ver = o3d.__version__
+    v, f, rgb = icosphere()
+    m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(v), o3d.utility.Vector3iVector(f))
+    m.compute_vertex_normals()
+    m.vertex_colors = o3d.utility.Vector3dVector(rgb / 255.0)
+    mv = np.asarray(m.vertices)
+    mn = np.asarray(m.vertex_normals)
+    mc = u8_from_unit(np.asarray(m.vertex_colors))
+    rgba = np.c_[mc, np.full(len(mc), 255)]
+    mf = np.asarray(m.triangles)
+    for name, ascii_, tol in [
+        ("open3d_mesh_ascii.ply", True, G6),
+        ("open3d_mesh_binary.ply", False, EXACT),
+    ]:
+        path = os.path.join(out, "mesh", name)
+        o3d.io.write_triangle_mesh(path, m, write_ascii=ascii_)
+        back = o3d.io.read_triangle_mesh(path)
+        close(back.vertices, mv, tol, name)
+        close(back.vertex_normals, mn, tol, name)
+        assert np.array_equal(np.asarray(back.triangles), mf)
+        exp[f"mesh/{name}"] = mesh_entry("Open3D", ver, mv, mf, mn, rgba, tol)
+        kind = "ASCII" if ascii_ else "binary little-endian"
+        readme.append((f"mesh/{name}", f"open3d.io.write_triangle_mesh (Open3D {ver})",
+                       f"{kind} PLY, icosphere 162 v / 320 f, double x y z nx ny nz, uchar rgb"))
+    name = "open3d_mesh.obj"
+    path = os.path.join(out, "mesh", name)
+    o3d.io.write_triangle_mesh(path, m)
+    back = o3d.io.read_triangle_mesh(path)
+    # Open3D's OBJ reader renumbers vertices in face-corner order: compare
+    # the sorted rows. (tests/fixtures.rs compares them in file order.)
+    bv = np.asarray(back.vertices)
+    close(bv[np.lexsort(bv.T)], mv[np.lexsort(mv.T)], G6, name)
+    exp[f"mesh/{name}"] = mesh_entry("Open3D", ver, mv, mf, mn, rgba, G6)
+    readme.append((f"mesh/{name}", f"open3d.io.write_triangle_mesh (Open3D {ver})",
+                   "OBJ, v x y z r g b (%g), vn, f a//a"))
+
+    p, n, prgb = oriented_points()
+    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(p))
+    pc.normals = o3d.utility.Vector3dVector(n)
+    pc.colors = o3d.utility.Vector3dVector(prgb / 255.0)
+    pp, pn, pcol = np.asarray(pc.points), np.asarray(pc.normals), u8_from_unit(np.asarray(pc.colors))
+    for name, ascii_, tol in [
+        ("open3d_points_ascii.ply", True, G6),
+        ("open3d_points_binary.ply", False, EXACT),
+    ]:
+        path = os.path.join(out, "mesh", name)
+        o3d.io.write_point_cloud(path, pc, write_ascii=ascii_)
+        back = o3d.io.read_point_cloud(path)
+        close(back.points, pp, tol, name)
+        close(back.normals, pn, tol, name)
+        close(u8_from_unit(np.asarray(back.colors)), pcol, EXACT, name)
+        exp[f"mesh/{name}"] = points_entry("Open3D", ver, pp, pn, pcol, tol)
+        kind = "ASCII" if ascii_ else "binary little-endian"
+        readme.append((f"mesh/{name}", f"open3d.io.write_point_cloud (Open3D {ver})",
+                       f"{kind} PLY, 96 points, double x y z nx ny nz, uchar rgb"))
+    return f"Open3D {ver}"
+
+
+def trimesh_files(out, exp, readme):
+    import trimesh
+
+    ver = trimesh.__version__
+    v, f, rgb = icosphere()
+    rgba = np.c_[rgb, np.full(len(rgb), 255)].astype(np.uint8)
+    t = trimesh.Trimesh(v, f, vertex_colors=rgba, process=False)
+    tn = np.array(t.vertex_normals)  # computed by trimesh (area-weighted, unit)
+    tv, tf, tc = np.asarray(t.vertices), np.asarray(t.faces), np.asarray(t.visual.vertex_colors)
+    files = [
+        ("trimesh_mesh_binary.ply", {}, EXACT, "binary little-endian PLY, float x y z nx ny nz, uchar rgba"),
+        ("trimesh_mesh_ascii.ply", {"encoding": "ascii"}, F8, "ASCII PLY (%.8f), float x y z nx ny nz, uchar rgba"),
+        ("trimesh_mesh.obj", {}, F8, "OBJ, v x y z r g b (%.8f), vn, f a//a"),
+        ("trimesh_mesh.glb", {}, EXACT, "GLB: POSITION, NORMAL (f32), COLOR_0 (normalised u8 RGBA), u32 indices"),
+    ]
+    for name, kw, tol, what in files:
+        path = os.path.join(out, "mesh", name)
+        t.export(path, **kw)
+        back = trimesh.load(path, process=False, force="mesh")
+        close(back.vertices, tv, tol, name)
+        assert np.array_equal(np.asarray(back.faces), tf), name
+        colors = tc
+        if name.endswith(".obj"):
+            colors = np.c_[tc[:, :3], np.full(len(tc), 255)]  # OBJ has no alpha
+        exp[f"mesh/{name}"] = mesh_entry("trimesh", ver, tv, tf, tn, colors, tol)
+        readme.append((f"mesh/{name}", f"trimesh.Trimesh.export (trimesh {ver})", what))
+
+    p, _, prgb = oriented_points()
+    tp = trimesh.PointCloud(p, colors=np.c_[prgb, np.full(len(prgb), 255)].astype(np.uint8))
+    for name, kw, tol, what in [
+        ("trimesh_points_binary.ply", {}, EXACT, "binary little-endian PLY, 96 points, float x y z, uchar rgba"),
+        ("trimesh_points_ascii.ply", {"encoding": "ascii"}, F8, "ASCII PLY (%.8f), 96 points, float x y z, uchar rgba"),
+    ]:
+        path = os.path.join(out, "mesh", name)
+        tp.export(path, **kw)
+        back = trimesh.load(path)
+        close(back.vertices, tp.vertices, tol, name)
+        exp[f"mesh/{name}"] = points_entry(
+            "trimesh", ver, np.asarray(tp.vertices), None, np.asarray(tp.colors)[:, :3], tol
+        )
+        readme.append((f"mesh/{name}", f"trimesh.PointCloud.export (trimesh {ver})", what))
+    return f"trimesh {ver}"
+
+
+def pymeshlab_files(out, exp, readme):
+    import pymeshlab
+
+    ver = pymeshlab.__version__ if hasattr(pymeshlab, "__version__") else None
+    if ver is None:
+        from importlib.metadata import version
+
+        ver = version("pymeshlab")
+    v, f, rgb = icosphere()
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(
+        pymeshlab.Mesh(
+            vertex_matrix=v,
+            face_matrix=f,
+            v_color_matrix=np.c_[rgb / 255.0, np.ones(len(rgb))],
+        ),
+        "icosphere",
+    )
+    # MeshLab computes area-weighted vertex normals on load; make them unit,
+    # as a user does with Filters > Normals > Normalize Vertex Normals.
+    ms.apply_filter("apply_normal_normalization_per_vertex")
+    cm = ms.current_mesh()
+    mv, mf, mn = cm.vertex_matrix(), cm.face_matrix(), cm.vertex_normal_matrix()
+    mc = u8_from_unit(cm.vertex_color_matrix())
+    quality = cm.vertex_scalar_array()
+    files = [
+        ("pymeshlab_mesh_binary.ply", {"save_vertex_normal": True}, EXACT,
+         "binary little-endian PLY (defaults + save_vertex_normal): double x y z nx ny nz, uchar rgba, double quality"),
+        ("pymeshlab_mesh_ascii.ply", {"binary": False, "save_vertex_normal": True}, G16,
+         "ASCII PLY (%.16g), double x y z nx ny nz, uchar rgba, double quality"),
+        ("pymeshlab_mesh.obj", {"save_vertex_normal": True}, G16,
+         "OBJ, v x y z (%.16f) r g b (%f), vn, f a//a"),
+    ]
+    for name, kw, tol, what in files:
+        path = os.path.join(out, "mesh", name)
+        ms.save_current_mesh(path, **kw)
+        back = pymeshlab.MeshSet()
+        back.load_new_mesh(path)
+        close(back.current_mesh().vertex_matrix(), mv, tol, name)
+        assert np.array_equal(back.current_mesh().face_matrix(), mf), name
+        scalars = {"quality": quality} if name.endswith(".ply") else None
+        exp[f"mesh/{name}"] = mesh_entry("pymeshlab", ver, mv, mf, mn, mc, tol, scalars)
+        readme.append((f"mesh/{name}", f"pymeshlab.MeshSet.save_current_mesh (PyMeshLab {ver})", what))
+
+    p, n, prgb = oriented_points()
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(
+        pymeshlab.Mesh(vertex_matrix=p, v_normals_matrix=n, v_color_matrix=np.c_[prgb / 255.0, np.ones(len(p))]),
+        "points",
+    )
+    cm = ms.current_mesh()
+    pp, pn, pcol = cm.vertex_matrix(), cm.vertex_normal_matrix(), u8_from_unit(cm.vertex_color_matrix())[:, :3]
+    name = "pymeshlab_points_binary.ply"
+    path = os.path.join(out, "mesh", name)
+    ms.save_current_mesh(path, save_vertex_normal=True)
+    back = pymeshlab.MeshSet()
+    back.load_new_mesh(path)
+    close(back.current_mesh().vertex_normal_matrix(), pn, EXACT, name)
+    exp[f"mesh/{name}"] = points_entry("pymeshlab", ver, pp, pn, pcol, EXACT)
+    readme.append((f"mesh/{name}", f"pymeshlab.MeshSet.save_current_mesh (PyMeshLab {ver})",
+                   "binary little-endian PLY, 96 points (a mesh with no faces), double x y z nx ny nz, uchar rgba"))
+    return f"PyMeshLab {ver}"
+
+
+# --------------------------------------------------------------------------
+
+def mat_files(out, exp, readme):
+    import scipy
+    import scipy.io
+
+    ver = scipy.__version__
+    rng = np.random.default_rng(12)
+    dims = (7, 5, 4)
+    mask = rng.random(dims) < 0.6
+    res = 0.5
+    bb = np.array([[-12.25, 3.5, 610.1], [-9.25, 5.5, 611.6]])
+    plane = np.array([[0.011], [-0.023], [0.9996], [-612.375]])
+
+    # eval.py's observability test, on probe points: BB cast to float32,
+    # voxel = np.around((p - BB_min) / Res) as int32, kept when in range.
+    bb32 = bb.astype(np.float32)
+    probes = []
+    for g in np.ndindex(*dims):
+        probes.append(bb[0] + np.array(g) * res)
+    probes = np.array(probes[::3])
+    probes = np.r_[probes, probes[:12] + rng.uniform(-0.3, 0.3, (12, 3)),
+                   [[-13.0, 4.0, 610.5], [-10.0, 6.0, 610.5], [-10.0, 4.0, 612.2]]]
+    grid = np.around((probes - bb32[:1]) / res).astype(np.int32)
+    inside = np.all((grid >= 0) & (grid < np.array(dims)), axis=1)
+    in_obs = np.zeros(len(probes), dtype=bool)
+    in_obs[inside] = mask[grid[inside, 0], grid[inside, 1], grid[inside, 2]]
+
+    for comp in [True, False]:
+        suffix = "" if comp else "_uncompressed"
+        for name, data in [
+            (f"ObsMask1_10{suffix}.mat", {"ObsMask": mask, "BB": bb, "Res": res}),
+            (f"Plane1{suffix}.mat", {"P": plane}),
+        ]:
+            path = os.path.join(out, "mat", name)
+            scipy.io.savemat(path, data, do_compression=comp)
+            back = scipy.io.loadmat(path)
+            for k, val in data.items():
+                assert np.array_equal(back[k], np.atleast_2d(val)), (name, k)
+            if "ObsMask" in data:
+                assert back["ObsMask"].dtype == np.uint8 or back["ObsMask"].dtype == bool
+                exp[f"mat/{name}"] = {
+                    "kind": "obsmask",
+                    "writer": f"scipy {ver}",
+                    "dims": list(dims),
+                    "mask_column_major": [int(x) for x in mask.flatten(order="F")],
+                    "bb": rows(bb),
+                    "res": res,
+                    "probes": rows(probes),
+                    "in_obs": [bool(x) for x in in_obs],
+                }
+                what = "ObsMask 7x5x4 logical, BB 2x3 double, Res 1x1 double"
+            else:
+                exp[f"mat/{name}"] = {"kind": "plane", "writer": f"scipy {ver}", "dims": [4, 1],
+                                      "p": [float(x) for x in plane.flatten()]}
+                what = "P 4x1 double"
+            how = "do_compression=True" if comp else "uncompressed"
+            readme.append((f"mat/{name}", f"scipy.io.savemat, {how} (SciPy {ver})", f"MAT v5, {what}"))
+    return f"SciPy {ver}"
+
+
+def rot(axis, angle):
+    axis = np.asarray(axis, dtype=np.float64)
+    axis /= np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def decompose(p):
+    """P (3x4) = s K [R | t] with K upper-triangular, positive diagonal,
+    K[2,2] = 1, det R = +1 (scipy's RQ decomposition)."""
+    import scipy.linalg
+
+    k, r = scipy.linalg.rq(p[:, :3])
+    d = np.diag(np.sign(np.diag(k)))
+    k, r = k @ d, d @ r
+    s = k[2, 2]
+    k = k / s
+    if np.linalg.det(r) < 0:
+        r, s = -r, -s
+    t = np.linalg.solve(s * k, p[:, 3])
+    return k, r, t
+
+
+def npz_files(out, exp, readme):
+    ver = np.__version__
+    rng = np.random.default_rng(13)
+    # Normalised-frame cameras looking at the origin, then the world frame
+    # (DTU-like: millimetres, object centred away from the origin).
+    scale = 212.5
+    centre = np.array([-24.0, 17.5, 610.0])
+    scale_mat = np.eye(4)
+    scale_mat[:3, :3] *= scale
+    scale_mat[:3, 3] = centre
+    arrays = {}
+    truth = []
+    for i in range(4):
+        fx, fy = 1150.0 + 10 * i, 1148.5 + 10 * i
+        cx, cy = 799.5 - i, 599.5 + 0.25 * i
+        k = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+        r = rot(rng.normal(size=3), rng.uniform(0.2, 1.0))
+        cam_centre = -r.T @ np.array([0.0, 0.0, 3.0]) + rng.normal(size=3) * 0.1
+        t = -r @ cam_centre
+        p_norm = k @ np.c_[r, t]
+        world = np.eye(4)
+        world[:3, :4] = p_norm @ np.linalg.inv(scale_mat)
+        arrays[f"world_mat_{i}"] = world
+        arrays[f"scale_mat_{i}"] = scale_mat
+        truth.append((k, r, t))
+    cams_norm, cams_world = [], []
+    for i, (k0, r0, t0) in enumerate(truth):
+        w = arrays[f"world_mat_{i}"]
+        for frame, out_list in [("norm", cams_norm), ("world", cams_world)]:
+            p = (w @ scale_mat)[:3] if frame == "norm" else w[:3]
+            k, r, t = decompose(p)
+            if frame == "norm":
+                assert np.allclose(k, k0, rtol=1e-9) and np.allclose(r, r0, atol=1e-9)
+                assert np.allclose(t, t0, atol=1e-9)
+            out_list.append({
+                "name": f"{i:03}",
+                "width": int(round(2 * (k[0, 2] + 0.5))),
+                "height": int(round(2 * (k[1, 2] + 0.5))),
+                "fx": k[0, 0], "fy": k[1, 1],
+                "cx": k[0, 2] + 0.5, "cy": k[1, 2] + 0.5,
+                "rotation": rows(r), "translation": [float(x) for x in t],
+            })
+    entry = {
+        "kind": "neus_npz",
+        "writer": f"numpy {ver}",
+        "world_mats": [rows(arrays[f"world_mat_{i}"]) for i in range(4)],
+        "scale_mat": rows(scale_mat),
+        "cameras_normalised": cams_norm,
+        "cameras_world": cams_world,
+        "tol": {"rel": 1e-9, "abs": 1e-9,
+                "note": "decomposition by scipy.linalg.rq in f64; raw matrices are exact f64"},
+    }
+    for name, fn, how in [
+        ("cameras_sphere.npz", np.savez, "np.savez (stored)"),
+        ("cameras_sphere_compressed.npz", np.savez_compressed, "np.savez_compressed (deflate)"),
+    ]:
+        path = os.path.join(out, "npz", name)
+        fn(path, **arrays)
+        with np.load(path) as back:
+            for key, val in arrays.items():
+                assert np.array_equal(back[key], val)
+        exp[f"npz/{name}"] = dict(entry, writer=f"numpy {ver}")
+        readme.append((f"npz/{name}", f"{how} (NumPy {ver})",
+                       "NeuS cameras_sphere.npz: world_mat_0..3, scale_mat_0..3 (4x4 float64)"))
+    return f"NumPy {ver}"
+
+
+def colmap_files(out, exp, readme):
+    import pycolmap
+
+    ver = pycolmap.__version__
+    rng = np.random.default_rng(14)
+    rec = pycolmap.Reconstruction()
+    cams = [
+        (1, "PINHOLE", 640, 480, [512.25, 511.75, 320.5, 239.25]),
+        (2, "OPENCV", 800, 600, [701.5, 702.25, 401.0, 299.5, -0.0125, 0.003, 0.0004, -0.0002]),
+        (3, "SIMPLE_RADIAL", 320, 240, [300.5, 160.25, 119.75, 0.021]),
+    ]
+    for cid, model, w, h, params in cams:
+        c = pycolmap.Camera.create_from_model_name(cid, model, params[0], w, h)
+        c.params = params
+        rec.add_camera_with_trivial_rig(c)
+    pts = rng.normal(size=(12, 3)) * 0.5 + np.array([0.0, 0.0, 4.0])
+    # Image ids deliberately not in name order (readers sort by name).
+    images = [(1, "frame_c.jpg", 1), (2, "frame_a.jpg", 2), (3, "frame_b.jpg", 3), (4, "frame_d.jpg", 1)]
+    poses = {}
+    for iid, name, cid in images:
+        q = rng.normal(size=4) * np.array([0.1, 0.1, 0.1, 1.0])
+        q /= np.linalg.norm(q)
+        if q[3] < 0:
+            q = -q
+        pose = pycolmap.Rigid3d(pycolmap.Rotation3d(q), rng.normal(size=3) * 0.3)  # xyzw
+        cam = rec.cameras[cid]
+        obs = []
+        for j in range(len(pts)):
+            pc = pose * pts[j]
+            xy = cam.img_from_cam(pc)
+            obs.append(pycolmap.Point2D(np.asarray(xy) + rng.normal(size=2) * 0.4))
+        obs.append(pycolmap.Point2D(np.array([5.5, 7.25])))  # not triangulated
+        im = pycolmap.Image(name=name, points2D=pycolmap.Point2DList(obs), camera_id=cid, image_id=iid)
+        rec.add_image_with_trivial_frame(im, pose)
+        poses[iid] = pose
+    for j in range(len(pts)):
+        track = pycolmap.Track()
+        for iid, _, _ in images:
+            if (j + iid) % 4 != 0:
+                track.add_element(iid, j)
+        rgb = rng.integers(0, 256, 3).astype(np.uint8)
+        rec.add_point3D(pts[j], track, rgb)
+    rec.update_point_3d_errors()
+    folder = os.path.join(out, "colmap")
+    os.makedirs(folder, exist_ok=True)
+    rec.write_text(folder)
+    back = pycolmap.Reconstruction(folder)
+    assert back.num_images() == len(images) and back.num_points3D() == len(pts)
+
+    e_cams = []
+    for cid in sorted(rec.cameras):
+        c = rec.cameras[cid]
+        e_cams.append({"id": cid, "model": c.model.name, "width": c.width, "height": c.height,
+                       "params": [float(x) for x in c.params]})
+    e_imgs = []
+    for iid in sorted(rec.images, key=lambda i: rec.images[i].name):
+        im = rec.images[iid]
+        pose = im.cam_from_world()
+        x, y, z, w = (float(v) for v in pose.rotation.quat)
+        e_imgs.append({
+            "id": iid, "name": im.name, "camera_id": im.camera_id,
+            "qvec_wxyz": [w, x, y, z], "tvec": [float(v) for v in pose.translation],
+            "rotation": rows(pose.rotation.matrix()),
+            "points2d": [[float(p.xy[0]), float(p.xy[1]), int(p.point3D_id) if p.has_point3D() else -1]
+                         for p in im.points2D],
+        })
+    e_pts = []
+    for pid in sorted(rec.points3D):
+        p = rec.points3D[pid]
+        e_pts.append({"id": pid, "xyz": [float(v) for v in p.xyz], "rgb": [int(v) for v in p.color],
+                      "error": float(p.error),
+                      "track": [[int(t.image_id), int(t.point2D_idx)] for t in p.track.elements]})
+    exp["colmap"] = {
+        "kind": "colmap",
+        "writer": f"pycolmap {ver}",
+        "cameras": e_cams,
+        "images": e_imgs,
+        "points3d": e_pts,
+        "tol": {"rel": 0.0, "abs": 1e-15, "note": "written with 17 significant digits: f64 exact; "
+                "rotation matrices from the quaternion compared at 1e-12"},
+    }
+    for f in sorted(os.listdir(folder)):
+        readme.append((f"colmap/{f}", f"pycolmap.Reconstruction.write_text (pycolmap {ver})",
+                       "COLMAP text model: 3 cameras (PINHOLE, OPENCV, SIMPLE_RADIAL), 4 images, 12 points"
+                       if f == "cameras.txt" else "part of the same model"))
+    return f"pycolmap {ver}"
+
+
+def gaussians_file(out, exp, readme):
+    import plyfile
+
+    from importlib.metadata import version
+
+    ver = version("plyfile")
+    rng = np.random.default_rng(15)
+    n = 40
+    xyz = rng.normal(size=(n, 3)).astype(np.float32)
+    normals = np.zeros_like(xyz)  # 3DGS writes zeros
+    f_dc = rng.normal(size=(n, 1, 3)).astype(np.float32)  # [N, 1, 3] as in GaussianModel
+    f_rest = (rng.normal(size=(n, 15, 3)) * 0.1).astype(np.float32)  # [N, 15, 3]
+    opacity = rng.normal(size=(n, 1)).astype(np.float32)
+    scale = (rng.normal(size=(n, 3)) - 4.0).astype(np.float32)
+    rotation = rng.normal(size=(n, 4)).astype(np.float32)  # w x y z, unnormalised
+    # save_ply flattens features transposed (channel-major f_rest).
+    dc_flat = f_dc.transpose(0, 2, 1).reshape(n, -1)
+    rest_flat = f_rest.transpose(0, 2, 1).reshape(n, -1)
+    names = ["x", "y", "z", "nx", "ny", "nz"]
+    names += [f"f_dc_{i}" for i in range(3)] + [f"f_rest_{i}" for i in range(45)]
+    names += ["opacity"] + [f"scale_{i}" for i in range(3)] + [f"rot_{i}" for i in range(4)]
+    table = np.concatenate([xyz, normals, dc_flat, rest_flat, opacity, scale, rotation], axis=1)
+    rec = np.empty(n, dtype=[(a, "f4") for a in names])
+    for j, a in enumerate(names):
+        rec[a] = table[:, j]
+    path = os.path.join(out, "gaussians", "point_cloud.ply")
+    plyfile.PlyData([plyfile.PlyElement.describe(rec, "vertex")]).write(path)
+    back = plyfile.PlyData.read(path)["vertex"].data
+    assert all(np.array_equal(back[a], rec[a]) for a in names)
+    exp["gaussians/point_cloud.ply"] = {
+        "kind": "gaussians",
+        "writer": f"plyfile {ver}",
+        "n": n,
+        "sh_degree": 3,
+        "means": rows(xyz),
+        "sh_dc": rows(f_dc.reshape(n, 3)),
+        "sh_rest_coefficient_major": [float(x) for x in f_rest.flatten()],
+        "opacity_logits": [float(x) for x in opacity.flatten()],
+        "log_scales": rows(scale),
+        "rotations_wxyz": rows(rotation),
+        "property_order": names,
+        "tol": EXACT,
+    }
+    readme.append(("gaussians/point_cloud.ply", f"plyfile.PlyData.write (plyfile {ver})",
+                   "3DGS PLY as graphdeco save_ply: 40 Gaussians, SH degree 3, float32, binary little-endian"))
+    return f"plyfile {ver}"
+
+
+def pt_files(out, readme):
+    sys.path.insert(0, HERE)
+    import make_pt_fixtures
+    import torch
+
+    folder = os.path.join(out, "pt")
+    rc = make_pt_fixtures.main([folder])
+    assert rc == 0
+    ver = torch.__version__
+    for f in sorted(os.listdir(folder)):
+        what = {
+            "ts_f32_param.pt": "Triangle Splatting checkpoint, nn.Parameter f32, 7 triangles, SH 3",
+            "ts_f16.pt": "the same cast to float16 (plain tensors)",
+            "ts_views.pt": "OrderedDict, strided/offset views, SH 1, uint16 extra, pickle protocol 4",
+            "ts_plus.pt": "Triangle Splatting+ indexed model (6 vertices, 5 triangles)",
+            "expected.json": "values torch reports for each checkpoint (for tests/torch_pt.rs)",
+        }.get(f, "")
+        tool = f"torch.save (PyTorch {ver}, CPU)" if f.endswith(".pt") else f"json, values from PyTorch {ver}"
+        readme.append((f"pt/{f}", tool, what, "scripts/make_pt_fixtures.py"))
+    return f"PyTorch {ver}"
+
+
+def main(argv):
+    out = argv[0] if argv else os.path.join(ROOT, "testdata")
+    for d in ["mat", "npz", "mesh", "colmap", "gaussians", "pt"]:
+        os.makedirs(os.path.join(out, d), exist_ok=True)
+    exp, readme, tools = {}, [], []
+    tools.append(mat_files(out, exp, readme))
+    tools.append(npz_files(out, exp, readme))
+    tools.append(open3d_files(out, exp, readme))
+    tools.append(trimesh_files(out, exp, readme))
+    tools.append(pymeshlab_files(out, exp, readme))
+    tools.append(colmap_files(out, exp, readme))
+    tools.append(gaussians_file(out, exp, readme))
+    tools.append(pt_files(out, readme))
+    with open(os.path.join(out, "expected.json"), "w") as f:
+        json.dump({"tools": tools, "files": exp, "arrays": ARRAYS}, f, separators=(",", ":"))
+        f.write("\n")
+    readme.append(("expected.json", "json (Python " + sys.version.split()[0] + ")",
+                   "the values tests/fixtures.rs must find in every file above, computed by the writing tools"))
+    write_readme(out, readme, tools)
+    print(f"wrote {len(readme)} files to {out} with: {', '.join(tools)}")
+    return 0
+
+
+def write_readme(out, readme, tools):
+    lines = [
+        "# testdata",
+        "",
+        "Small files written by the tools splatkit's users already run, read by `tests/fixtures.rs`",
+        "and `tests/torch_pt.rs` (never skipped: they are committed). Regenerate everything with",
+        "`python scripts/make_fixtures.py` (see its docstring for the pip packages); the values the",
+        "tests compare with are in `expected.json` and `pt/expected.json`, computed by the tools.",
+        "",
+        "Tools: " + ", ".join(tools) + f", Python {sys.version.split()[0]}.",
+        "PyTorch is the PyPI wheel (the CPU-only index was not reachable where these were made),",
+        "run on the CPU; the checkpoints do not depend on the build.",
+        "",
+        "One line per file: path — script — tool (version) — what it holds.",
+        "",
+    ]
+    for entry in readme:
+        path, tool, what = entry[:3]
+        script = entry[3] if len(entry) > 3 else "scripts/make_fixtures.py"
+        lines.append(f"- `{path}` — `{script}` — {tool} — {what}")
+    with open(os.path.join(out, "README.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
