@@ -152,7 +152,7 @@ fn read_mesh(rel: &str) -> Mesh {
     }
     .unwrap_or_else(|e| panic!("{rel}: {e}"));
     m.validate().unwrap_or_else(|e| panic!("{rel}: {e}"));
-    let loaded = splatkit::io::any::load_mesh(&path(rel)).unwrap();
+    let loaded = splatkit::io::any::load_mesh(&path(rel), "fixtures test").unwrap();
     assert_eq!(loaded.vertices, m.vertices, "{rel}: load_mesh");
     assert_eq!(loaded.faces, m.faces, "{rel}: load_mesh");
     m
