@@ -45,6 +45,17 @@
 //! ([`MatData::U8`]); every other numeric class is widened to `f64`
 //! ([`MatData::F64`]), which is exact for all classes except `int64`/`uint64`
 //! values beyond ±2^53.
+//!
+//! # Why not the `matfile` crate
+//! `matfile` 0.5 only reads, and this module also writes. Its reader was
+//! measured against ours (2-vCPU machine, release build) on a DTU-like file,
+//! a logical 400×400×300 `ObsMask` and two doubles: compressed (0.8 MB)
+//! 203 ms against 116 ms here, uncompressed (45.8 MB) 162 ms against 50 ms.
+//! It returns an empty variable list, not an error, for a file cut inside its
+//! first element. It answers "An error occurred while parsing the file"
+//! without offset or variable, e.g. for dimensions that disagree with the
+//! data. And it drops non-numeric variables, so [`require_numeric`] could not
+//! say "variable 'X' is a 1×1 struct".
 
 use std::fmt::Display;
 use std::io::{Read, Write};
