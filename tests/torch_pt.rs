@@ -73,11 +73,16 @@ fn soup(n: usize, seed: u64) -> TriangleSoup {
     }
 }
 
-/// Offset and length of the first zip entry's data (`archive/data.pkl`).
+/// Offset and length of the first zip entry's data (`archive/data.pkl`),
+/// from the central directory (the local header may defer the size to a
+/// data descriptor, as torch's own writer does).
 fn first_entry(bytes: &[u8]) -> (usize, usize) {
-    let u16_at = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]) as usize;
-    let size = u32::from_le_bytes(bytes[18..22].try_into().unwrap()) as usize;
-    (30 + u16_at(26) + u16_at(28), size)
+    let mut za = zip::ZipArchive::new(std::io::Cursor::new(bytes)).unwrap();
+    let f = za.by_index_raw(0).unwrap();
+    (
+        f.data_start().unwrap() as usize,
+        f.compressed_size() as usize,
+    )
 }
 
 /// Parses `bytes` (no panic allowed) and returns the largest single

@@ -166,99 +166,33 @@ pub fn read_cameras(path: &Path) -> Result<Vec<Camera>> {
 }
 
 /// Width and height in pixels of a PNG or JPEG image, read from its header
-/// (PNG: signature + IHDR chunk; JPEG: the first start-of-frame marker)
-/// without decoding the pixels.
+/// by the `imagesize` crate (PNG: the IHDR chunk; JPEG: the first
+/// start-of-frame marker, reached by seeking over the segments before it)
+/// without decoding the pixels or reading the rest of the file.
 pub fn image_dimensions(path: &Path) -> Result<(u32, u32)> {
     let name = path.display().to_string();
-    let mut file = std::fs::File::open(path).map_err(|e| Error::io(&name, e))?;
-    // A PNG's size is in its first 24 bytes; a JPEG's SOF marker comes after
-    // the application segments (EXIF thumbnails can take up to ~64 KiB each),
-    // so read the head of the file, and all of it only for JPEG.
-    let mut head = Vec::new();
-    (&mut file)
-        .take(24)
-        .read_to_end(&mut head)
-        .map_err(|e| Error::io(&name, e))?;
-    const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a];
-    if head.starts_with(&PNG_SIGNATURE) {
-        if head.len() < 24 || &head[12..16] != b"IHDR" {
-            return Err(Error::format(
-                &name,
-                "PNG without an IHDR chunk at byte offset 12 (truncated or corrupt header)",
-            ));
+    let size = imagesize::size(path).map_err(|e| match e {
+        imagesize::ImageError::IoError(e) if e.kind() != std::io::ErrorKind::UnexpectedEof => {
+            Error::io(&name, e)
         }
-        let w = u32::from_be_bytes(head[16..20].try_into().expect("4 bytes"));
-        let h = u32::from_be_bytes(head[20..24].try_into().expect("4 bytes"));
-        if w == 0 || h == 0 {
-            return Err(Error::format(
-                &name,
-                format!("PNG IHDR gives an empty image {w}x{h}"),
-            ));
-        }
-        return Ok((w, h));
-    }
-    if head.starts_with(&[0xff, 0xd8]) {
-        file.read_to_end(&mut head)
-            .map_err(|e| Error::io(&name, e))?;
-        return jpeg_dimensions(&name, &head);
-    }
-    Err(Error::format(
-        &name,
-        "not a PNG or JPEG image (unknown signature); cannot read its size",
-    ))
-}
-
-fn jpeg_dimensions(name: &str, b: &[u8]) -> Result<(u32, u32)> {
-    let mut pos = 2;
-    loop {
-        // Skip fill bytes before a marker.
-        while pos < b.len() && b[pos] == 0xff && b.get(pos + 1) == Some(&0xff) {
-            pos += 1;
-        }
-        if pos + 4 > b.len() {
-            return Err(Error::format(
-                name,
-                format!("JPEG ends at byte offset {pos} before a start-of-frame marker"),
-            ));
-        }
-        if b[pos] != 0xff {
-            return Err(Error::format(
-                name,
-                format!(
-                    "JPEG: expected a marker at byte offset {pos}, found 0x{:02x}",
-                    b[pos]
-                ),
-            ));
-        }
-        let marker = b[pos + 1];
-        let len = u16::from_be_bytes([b[pos + 2], b[pos + 3]]) as usize;
-        let is_sof = matches!(marker, 0xc0..=0xcf) && !matches!(marker, 0xc4 | 0xc8 | 0xcc);
-        if is_sof {
-            if pos + 9 > b.len() {
-                return Err(Error::format(
-                    name,
-                    format!("JPEG start-of-frame at byte offset {pos} is truncated"),
-                ));
-            }
-            let h = u16::from_be_bytes([b[pos + 5], b[pos + 6]]) as u32;
-            let w = u16::from_be_bytes([b[pos + 7], b[pos + 8]]) as u32;
-            if w == 0 || h == 0 {
-                return Err(Error::format(
-                    name,
-                    format!(
-                        "JPEG start-of-frame at byte offset {pos} gives an empty image {w}x{h}"
-                    ),
-                ));
-            }
-            return Ok((w, h));
-        }
-        if len < 2 {
-            return Err(Error::format(
-                name,
-                format!("JPEG segment at byte offset {pos} has an invalid length {len}"),
-            ));
-        }
-        pos += 2 + len;
+        imagesize::ImageError::NotSupported => Error::format(
+            &name,
+            "not a PNG or JPEG image (unknown signature); cannot read its size",
+        ),
+        _ => Error::format(
+            &name,
+            "the PNG or JPEG header ends before it gives the image size (truncated or corrupt file)",
+        ),
+    })?;
+    match (u32::try_from(size.width), u32::try_from(size.height)) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(Error::format(
+            &name,
+            format!(
+                "the image header gives an unusable size {}x{}",
+                size.width, size.height
+            ),
+        )),
     }
 }
 

@@ -721,7 +721,7 @@ fn indexed_soup(ck: &TorchCheckpoint) -> Result<TriangleSoup> {
 }
 
 /// A storage to be written: dtype, shape and its little-endian bytes,
-/// produced in pieces (twice: once for the CRC, once for the data).
+/// produced in pieces as the zip writer takes them.
 struct OutTensor<'s> {
     key: String,
     dtype: DType,
