@@ -9,10 +9,11 @@
 //! `p' = s·R·p + t`, stored as `[[s·R, t], [0, 0, 0, 1]]`. Composition
 //! `mat4_mul(a, b)` applies `b` first.
 
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::geom::knn::NnIndex;
+use crate::model::rng;
 use crate::{Error, Result};
 
 /// A 4×4 row-major homogeneous transform (`m[row][col]`), acting on column
@@ -296,14 +297,6 @@ impl Default for RansacParams {
 /// results depend only on the seed.
 const RANSAC_CHUNK: usize = 512;
 
-/// SplitMix64 finaliser: decorrelates the per-chunk seeds.
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// One scored hypothesis; ordered by inlier count (more is better), then
 /// RMSE (lower is better), then iteration (earlier is better).
 #[derive(Clone, Copy)]
@@ -339,8 +332,8 @@ fn better(a: Hypothesis, b: Hypothesis) -> Hypothesis {
 ///
 /// The only intended difference: Open3D seeds `std::mt19937` from
 /// `std::random_device` (results vary run to run) and draws `rng() % n`; this
-/// function draws from PCG64 streams derived from `seed` and the index of
-/// each block of 512 iterations, so the result is reproducible and
+/// function draws from the crate's generator, one stream per block of 512
+/// iterations ([`rng::stream`]`(seed, block)`), so the result is reproducible and
 /// independent of the rayon thread count. Degenerate samples (all drawn
 /// sources equal) score no inliers, as Eigen's NaN transform does in Open3D.
 ///
@@ -382,9 +375,7 @@ pub fn ransac_on_correspondences(
     let best = (0..chunks)
         .into_par_iter()
         .filter_map(|chunk| {
-            let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(splitmix64(
-                params.seed ^ splitmix64(chunk as u64),
-            ));
+            let mut rng = rng::stream(params.seed, chunk as u64);
             let first = chunk * RANSAC_CHUNK;
             let last = (first + RANSAC_CHUNK).min(params.max_iteration);
             let mut s = vec![[0.0; 3]; params.ransac_n];
@@ -617,7 +608,7 @@ mod tests {
     }
 
     fn random_points(n: usize, seed: u64, half: f64) -> Vec<[f64; 3]> {
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let mut rng = rng::seeded(seed);
         (0..n)
             .map(|_| {
                 [

@@ -14,10 +14,10 @@
 //! Units are those of the vertex coordinates (millimetres for DTU). Faces
 //! index `vertices`; an index out of range is an [`Error`] naming the face.
 
-use rand::{RngExt, SeedableRng};
-use rand_pcg::Pcg64Mcg;
+use rand::RngExt;
 use rayon::prelude::*;
 
+use crate::model::rng;
 use crate::{Error, Result};
 
 #[inline]
@@ -227,14 +227,6 @@ const UNIFORM_BLOCK: usize = 4096;
 /// density that does not match the mesh units.
 const MAX_UNIFORM_SAMPLES: f64 = 4_294_967_296.0;
 
-/// SplitMix64 finaliser: decorrelates the per-block seeds.
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// Face areas (half the cross-product norm); a NaN or infinite area counts as 0.
 fn face_areas(vertices: &[[f64; 3]], faces: &[[u32; 3]]) -> Vec<f64> {
     faces
@@ -258,7 +250,7 @@ fn face_areas(vertices: &[[f64; 3]], faces: &[[u32; 3]]) -> Vec<f64> {
 /// vertex) are never chosen.
 ///
 /// Determinism: sample `k` belongs to block `k / 4096`, and each block draws
-/// from its own `Pcg64Mcg` seeded from `seed` and the block number, so the
+/// from its own generator, [`rng::stream`]`(seed, block)`, so the
 /// output depends only on the inputs and `seed`, not on the rayon thread count.
 ///
 /// Errors: a face index out of range; `count > 0` on a mesh of zero total
@@ -300,8 +292,7 @@ pub fn sample_area_uniform_with_faces(
         .zip(face_ids.par_chunks_mut(UNIFORM_BLOCK))
         .enumerate()
         .for_each(|(block, (pts, ids))| {
-            let block_seed = splitmix64(seed ^ splitmix64(block as u64));
-            let mut rng = Pcg64Mcg::seed_from_u64(block_seed);
+            let mut rng = rng::stream(seed, block as u64);
             for (p, id) in pts.iter_mut().zip(ids.iter_mut()) {
                 let u = rng.random::<f64>() * total;
                 let mut f = cdf.partition_point(|&c| c <= u);
@@ -447,11 +438,11 @@ mod tests {
             .sum()
     }
 
-    fn rng(seed: u64) -> Pcg64Mcg {
-        Pcg64Mcg::seed_from_u64(seed)
+    fn rng(seed: u64) -> rng::Rng {
+        rng::seeded(seed)
     }
 
-    fn random_triangle(r: &mut Pcg64Mcg, scale: f64) -> [[f64; 3]; 3] {
+    fn random_triangle(r: &mut rng::Rng, scale: f64) -> [[f64; 3]; 3] {
         let mut p = || {
             [
                 r.random_range(-scale..scale),
@@ -636,7 +627,7 @@ mod tests {
     }
 
     fn random_mesh(
-        r: &mut Pcg64Mcg,
+        r: &mut rng::Rng,
         nv: usize,
         nf: usize,
         scale: f64,

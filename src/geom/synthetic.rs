@@ -6,10 +6,11 @@
 //! along y, point(u, v) = ((R + r cos v) cos u, r sin v, (R + r cos v) sin u).
 
 use glam::{DMat3, DQuat, DVec3};
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 
 use crate::model::Mesh;
 use crate::model::gaussians::{Gaussians, logit};
+use crate::model::rng;
 
 /// A torus of major radius `major` and minor radius `minor`.
 #[derive(Clone, Copy, Debug)]
@@ -69,7 +70,7 @@ impl Torus {
         seed: u64,
     ) -> Gaussians {
         let mut g = Gaussians::default();
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let mut rng = rng::seeded(seed);
         let push = |g: &mut Gaussians, p: DVec3, rot: DMat3, s: [f64; 3], o: f32, rgb: [f32; 3]| {
             let q = DQuat::from_mat3(&rot).normalize();
             g.means.push([p.x as f32, p.y as f32, p.z as f32]);

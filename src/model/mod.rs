@@ -6,6 +6,7 @@ pub mod camera;
 pub mod gaussians;
 pub mod mesh;
 pub mod point_cloud;
+pub mod rng;
 pub mod triangle_soup;
 
 /// SH coefficients of item `i`, coefficient-major with the DC term at k = 0,
