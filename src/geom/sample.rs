@@ -14,32 +14,12 @@
 //! Units are those of the vertex coordinates (millimetres for DTU). Faces
 //! index `vertices`; an index out of range is an [`Error`] naming the face.
 
+use glam::DVec3;
 use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::model::rng;
 use crate::{Error, Result};
-
-#[inline]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// numpy `np.cross` component formulas, same operation order.
-#[inline]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// numpy `np.linalg.norm(x, axis=-1)`: sqrt of the squares summed left to right.
-#[inline]
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
 
 /// Emits the DTU up-sampling points of one triangle `(v0, v1, v2)` at spacing
 /// `d` (DTU uses `d = 0.2` mm), reproducing `MeshSupSamp` as ported in
@@ -75,11 +55,16 @@ pub fn dtu_upsample(
     if !(d > 0.0 && d.is_finite()) || [v0, v1, v2].iter().flatten().any(|c| !c.is_finite()) {
         return;
     }
-    let e1 = sub(v1, v0);
-    let e2 = sub(v2, v0);
-    let l1 = norm(e1);
-    let l2 = norm(e2);
-    let a2 = norm(cross(e1, e2));
+    let v0 = DVec3::from_array(v0);
+    // glam computes these with numpy's operations: `cross` takes the
+    // products of `np.cross` (each the same, as multiplication commutes) and
+    // `length` is the sqrt of the squares summed left to right, as
+    // `np.linalg.norm(x, axis=-1)`; so the bits match the reference.
+    let e1 = DVec3::from_array(v1) - v0;
+    let e2 = DVec3::from_array(v2) - v0;
+    let l1 = e1.length();
+    let l2 = e2.length();
+    let a2 = e1.cross(e2).length();
     // A NaN area is dropped too, as by numpy's `area2 > 0` mask.
     if a2.is_nan() || a2 <= 0.0 {
         return;
@@ -113,11 +98,7 @@ pub fn dtu_upsample(
             if k1 + k2 >= 1.0 {
                 break;
             }
-            emit([
-                e1[0] * k1 + e2[0] * k2 + v0[0],
-                e1[1] * k1 + e2[1] * k2 + v0[1],
-                e1[2] * k1 + e2[2] * k2 + v0[2],
-            ]);
+            emit((e1 * k1 + e2 * k2 + v0).to_array());
             j += 1.0;
         }
         i += 1.0;
@@ -232,8 +213,8 @@ fn face_areas(vertices: &[[f64; 3]], faces: &[[u32; 3]]) -> Vec<f64> {
     faces
         .iter()
         .map(|face| {
-            let [a, b, c] = corners(vertices, face);
-            let area = 0.5 * norm(cross(sub(b, a), sub(c, a)));
+            let [a, b, c] = corners(vertices, face).map(DVec3::from_array);
+            let area = 0.5 * (b - a).cross(c - a).length();
             if area.is_finite() { area } else { 0.0 }
         })
         .collect()
@@ -442,6 +423,10 @@ mod tests {
         rng::seeded(seed)
     }
 
+    fn v(p: [f64; 3]) -> DVec3 {
+        DVec3::from_array(p)
+    }
+
     fn random_triangle(r: &mut rng::Rng, scale: f64) -> [[f64; 3]; 3] {
         let mut p = || {
             [
@@ -455,9 +440,9 @@ mod tests {
 
     /// n1, n2 as the rule computes them (to pick the expected-count formula).
     fn grid_size(t: &[[f64; 3]; 3], d: f64) -> (f64, f64) {
-        let e1 = sub(t[1], t[0]);
-        let e2 = sub(t[2], t[0]);
-        let (l1, l2, a2) = (norm(e1), norm(e2), norm(cross(e1, e2)));
+        let e1 = v(t[1]) - v(t[0]);
+        let e2 = v(t[2]) - v(t[0]);
+        let (l1, l2, a2) = (e1.length(), e2.length(), e1.cross(e2).length());
         let thr = d * (l1 * l2 / a2).sqrt();
         ((l1 / thr).floor(), (l2 / thr).floor())
     }
@@ -529,13 +514,12 @@ mod tests {
         let mut r = rng(11);
         for _ in 0..200 {
             let t = random_triangle(&mut r, 2.0);
-            let (e1, e2) = (sub(t[1], t[0]), sub(t[2], t[0]));
+            let (e1, e2) = (v(t[1]) - v(t[0]), v(t[2]) - v(t[0]));
             for p in upsample_vec(t, 0.2) {
                 // Solve p − v0 = a·e1 + b·e2 by the 2×2 normal equations.
-                let q = sub(p, t[0]);
-                let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-                let (g11, g12, g22) = (dot(e1, e1), dot(e1, e2), dot(e2, e2));
-                let (b1, b2) = (dot(q, e1), dot(q, e2));
+                let q = v(p) - v(t[0]);
+                let (g11, g12, g22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+                let (b1, b2) = (q.dot(e1), q.dot(e2));
                 let det = g11 * g22 - g12 * g12;
                 let a = (b1 * g22 - b2 * g12) / det;
                 let b = (b2 * g11 - b1 * g12) / det;
@@ -584,11 +568,11 @@ mod tests {
             let ties = tie_count(a, b);
             assert_eq!(2 * got, a * b - ties, "n1={a} n2={b} ties={ties}");
             count += got;
-            let e1 = sub(t[1], t[0]);
-            let e2 = sub(t[2], t[0]);
-            let tri_area = 0.5 * norm(cross(e1, e2));
-            let thr = d * (norm(e1) * norm(e2) / (2.0 * tri_area)).sqrt();
-            let (x, y) = (norm(e1) / thr, norm(e2) / thr);
+            let e1 = v(t[1]) - v(t[0]);
+            let e2 = v(t[2]) - v(t[0]);
+            let tri_area = 0.5 * e1.cross(e2).length();
+            let thr = d * (e1.length() * e2.length() / (2.0 * tri_area)).sqrt();
+            let (x, y) = (e1.length() / thr, e2.length() / thr);
             area += tri_area;
             approx += tri_area / (d * d) * (1.0 - 0.5 / x) * (1.0 - 0.5 / y) - ties as f64 / 2.0;
         }
@@ -710,14 +694,13 @@ mod tests {
     /// Barycentric coordinates (wa, wb, wc) of `p` in triangle `t` and the
     /// distance of `p` from the triangle's plane.
     fn barycentric(t: &[[f64; 3]; 3], p: [f64; 3]) -> ([f64; 3], f64) {
-        let (e1, e2) = (sub(t[1], t[0]), sub(t[2], t[0]));
-        let n = cross(e1, e2);
-        let q = sub(p, t[0]);
-        let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-        let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-        let plane = dot(q, n) / nn.sqrt();
-        let wb = dot(cross(q, e2), n) / nn;
-        let wc = dot(cross(e1, q), n) / nn;
+        let (e1, e2) = (v(t[1]) - v(t[0]), v(t[2]) - v(t[0]));
+        let n = e1.cross(e2);
+        let q = v(p) - v(t[0]);
+        let nn = n.length_squared();
+        let plane = q.dot(n) / nn.sqrt();
+        let wb = q.cross(e2).dot(n) / nn;
+        let wc = e1.cross(q).dot(n) / nn;
         ([1.0 - wb - wc, wb, wc], plane)
     }
 
