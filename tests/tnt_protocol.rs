@@ -5,10 +5,10 @@
 //! (F-score 1), and write the plot and the coloured clouds.
 
 use assert_cmd::Command;
-use splatkit::geom::crop::{Axis, CropVolume};
 use splatkit::io::ply::{Format, points::write_points};
 use splatkit::io::tnt::{LogFrame, write_crop_json, write_log};
 use splatkit::model::PointCloud;
+use splatkit::model::crop::{Axis, CropVolume};
 
 const TAU: f64 = 0.01; // Barn's threshold
 

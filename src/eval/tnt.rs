@@ -12,7 +12,7 @@ use std::io::Write;
 
 use serde::Serialize;
 
-use crate::geom::crop::CropVolume;
+use crate::geom::crop::Crop;
 use crate::geom::knn::NnIndex;
 use crate::geom::registration::{
     IDENTITY4, IcpParams, Mat4, RansacParams, icp_point_to_point, mat4_mul,
@@ -20,6 +20,7 @@ use crate::geom::registration::{
 };
 use crate::geom::voxel::{uniform_down_sample, voxel_down_sample};
 use crate::io::source::werr;
+use crate::model::CropVolume;
 use crate::{Error, Result};
 
 /// Per-scene thresholds τ in metres, from the toolbox's `config.py`.
@@ -520,8 +521,8 @@ pub fn plot_pr_curves(report: &TntReport, w: &mut dyn Write) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::crop::Axis;
     use crate::geom::registration::Similarity;
+    use crate::model::crop::Axis;
 
     const TAU: f64 = 0.01;
 

@@ -22,9 +22,9 @@
 use std::io::Write;
 use std::path::Path;
 
-use crate::geom::crop::{Axis, CropVolume};
 use crate::geom::registration::Mat4;
 use crate::io::source::{read_input, werr, write_output};
+use crate::model::crop::{Axis, CropVolume};
 use crate::{Error, Result};
 
 /// One frame of a trajectory `.log` file.

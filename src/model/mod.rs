@@ -1,8 +1,10 @@
-//! In-memory scene types. Storage is f32 (as in the files); algorithms
-//! accumulate in f64 where precision matters.
+//! In-memory scene types and the plain value types shared by the layers
+//! (crop volume, seeded generator). Storage is f32 (as in the files);
+//! algorithms accumulate in f64 where precision matters.
 
 pub mod attributes;
 pub mod camera;
+pub mod crop;
 pub mod gaussians;
 pub mod mesh;
 pub mod point_cloud;
@@ -25,6 +27,7 @@ pub fn sh_coeffs_of(dc: &[[f32; 3]], rest: &[f32], k: usize, i: usize) -> Vec<[f
 
 pub use attributes::{Column, Element, Extras, Property, ScalarData, ScalarType};
 pub use camera::{Camera, CameraModel};
+pub use crop::{Axis, CropVolume};
 pub use gaussians::Gaussians;
 pub use mesh::Mesh;
 pub use point_cloud::PointCloud;
