@@ -5,6 +5,7 @@
 //! (F-score 1), and write the plot and the coloured clouds.
 
 use assert_cmd::Command;
+use glam::{DMat4, DVec3};
 use splatkit::io::ply::{Format, points::write_points};
 use splatkit::io::tnt::{LogFrame, write_crop_json, write_log};
 use splatkit::model::PointCloud;
@@ -38,16 +39,9 @@ fn similarity(p: [f64; 3]) -> [f64; 3] {
 }
 
 fn pose(c: [f64; 3]) -> LogFrame {
-    let mut pose = [[0.0; 4]; 4];
-    for (i, row) in pose.iter_mut().enumerate() {
-        row[i] = 1.0;
-        if i < 3 {
-            row[3] = c[i];
-        }
-    }
     LogFrame {
         meta: [0, 0, 0],
-        pose,
+        pose: DMat4::from_translation(DVec3::from_array(c)),
     }
 }
 

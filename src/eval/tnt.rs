@@ -4,19 +4,20 @@
 //! per-scene thresholds and a PNG plot of the precision/recall curves.
 //!
 //! Units are those of the ground truth (metres for TnT). Trajectory poses are
-//! camera-to-world 4×4 matrices ([`Mat4`], row-major), as in the `.log`
-//! files read by [`crate::io::tnt`]. The returned transformation maps the
-//! reconstruction into the ground-truth frame.
+//! camera-to-world 4×4 matrices ([`DMat4`]), as in the `.log` files read by
+//! [`crate::io::tnt`]. The returned transformation maps the reconstruction
+//! into the ground-truth frame; in JSON, transforms are written row by row
+//! (`[[m00, m01, m02, m03], …]`), the layout of the TnT files.
 
 use std::io::Write;
 
-use serde::Serialize;
+use glam::DMat4;
+use serde::{Serialize, Serializer};
 
 use crate::geom::crop::Crop;
 use crate::geom::knn::NnIndex;
 use crate::geom::registration::{
-    IDENTITY4, IcpParams, Mat4, RansacParams, icp_point_to_point, mat4_mul,
-    ransac_on_correspondences, transform_point, transform_points,
+    IcpParams, RansacParams, icp_point_to_point, ransac_on_correspondences, transform_points,
 };
 use crate::geom::voxel::{uniform_down_sample, voxel_down_sample};
 use crate::io::source::werr;
@@ -98,7 +99,13 @@ pub struct TntIcpPass {
     /// Updates applied.
     pub iterations: usize,
     /// Reconstruction → ground truth after this pass.
-    pub transformation: Mat4,
+    #[serde(serialize_with = "serialize_rows")]
+    pub transformation: DMat4,
+}
+
+/// Serialises a transform as its 4 rows.
+fn serialize_rows<S: Serializer>(m: &DMat4, s: S) -> std::result::Result<S::Ok, S::Error> {
+    m.transpose().to_cols_array_2d().serialize(s)
 }
 
 /// Everything [`evaluate_tnt`] measures.
@@ -113,9 +120,11 @@ pub struct TntReport {
     /// 2PR/(P+R); 0 when P = R = 0.
     pub fscore: f64,
     /// Final reconstruction → ground-truth transform (after the 3 ICP passes).
-    pub transformation: Mat4,
+    #[serde(serialize_with = "serialize_rows")]
+    pub transformation: DMat4,
     /// Transform from the trajectory alignment (RANSAC) alone.
-    pub trajectory_transformation: Mat4,
+    #[serde(serialize_with = "serialize_rows")]
+    pub trajectory_transformation: DMat4,
     /// RANSAC fitness (fraction of cameras within the max distance).
     pub trajectory_fitness: f64,
     /// RANSAC inlier RMSE.
@@ -221,9 +230,9 @@ pub fn vertices_and_face_centroids(
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_tnt(
     rec_points: &[[f64; 3]],
-    rec_traj: &[Mat4],
-    gt_traj: &[Mat4],
-    gt_trans: &Mat4,
+    rec_traj: &[DMat4],
+    gt_traj: &[DMat4],
+    gt_trans: &DMat4,
     crop: &CropVolume,
     gt_points: &[[f64; 3]],
     tau: f64,
@@ -258,11 +267,12 @@ pub fn evaluate_tnt(
     }
 
     // 1. Trajectory alignment.
-    let centre = |m: &Mat4| [m[0][3], m[1][3], m[2][3]];
-    let src: Vec<[f64; 3]> = rec_traj.iter().map(centre).collect();
+    // A camera-to-world pose's centre is its translation column.
+    let centre = |m: &DMat4| m.w_axis.truncate();
+    let src: Vec<[f64; 3]> = rec_traj.iter().map(|m| centre(m).to_array()).collect();
     let dst: Vec<[f64; 3]> = gt_traj
         .iter()
-        .map(|m| transform_point(gt_trans, &centre(m)))
+        .map(|m| gt_trans.project_point3(centre(m)).to_array())
         .collect();
     let ransac = ransac_on_correspondences(&src, &dst, &params.ransac)?;
 
@@ -284,8 +294,8 @@ pub fn evaluate_tnt(
         ("voxel τ/2", tau / 2.0, 20.0 * tau, &gt_half),
     ] {
         let s = voxel_down_sample(&crop.crop(&transform_points(&t, rec_points)), voxel)?;
-        let r = icp_point_to_point(&s, g, &IDENTITY4, &icp(dist))?;
-        t = mat4_mul(&r.registration.transformation, &t);
+        let r = icp_point_to_point(&s, g, &DMat4::IDENTITY, &icp(dist))?;
+        t = r.registration.transformation * t;
         passes.push(TntIcpPass {
             downsampling: name.to_string(),
             downsampling_value: voxel,
@@ -312,8 +322,8 @@ pub fn evaluate_tnt(
         let (s, ks) = uniform(crop.crop(&transform_points(&t, rec_points)))?;
         let (g, _) = uniform(gt_crop.clone())?;
         let dist = 2.0 * tau;
-        let r = icp_point_to_point(&s, &g, &IDENTITY4, &icp(dist))?;
-        t = mat4_mul(&r.registration.transformation, &t);
+        let r = icp_point_to_point(&s, &g, &DMat4::IDENTITY, &icp(dist))?;
+        t = r.registration.transformation * t;
         passes.push(TntIcpPass {
             downsampling: "uniform".to_string(),
             downsampling_value: ks as f64,
@@ -521,8 +531,9 @@ pub fn plot_pr_curves(report: &TntReport, w: &mut dyn Write) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::registration::Similarity;
+    use crate::model::Similarity;
     use crate::model::crop::Axis;
+    use glam::{DMat3, DVec3};
 
     const TAU: f64 = 0.01;
 
@@ -594,75 +605,52 @@ mod tests {
         }
     }
 
-    fn rotation(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+    /// Rotation about `axis` by `angle` (Rodrigues' formula, rows as written).
+    fn rotation(axis: [f64; 3], angle: f64) -> DMat3 {
         let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
         let [x, y, z] = axis.map(|c| c / n);
         let (s, c) = angle.sin_cos();
         let t = 1.0 - c;
-        [
+        DMat3::from_cols_array_2d(&[
             [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
             [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
             [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
-        ]
+        ])
+        .transpose()
     }
 
-    fn matmul3(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-        let mut m = [[0.0; 3]; 3];
-        for (i, row) in m.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-            }
-        }
-        m
-    }
-
-    fn transpose3(a: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-        let mut m = [[0.0; 3]; 3];
-        for (i, row) in m.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v = a[j][i];
-            }
-        }
-        m
-    }
-
-    fn pose(r: &[[f64; 3]; 3], c: [f64; 3]) -> Mat4 {
-        let mut m = IDENTITY4;
-        for i in 0..3 {
-            m[i][..3].copy_from_slice(&r[i]);
-            m[i][3] = c[i];
-        }
-        m
+    fn pose(r: &DMat3, c: DVec3) -> DMat4 {
+        DMat4::from_cols(
+            r.x_axis.extend(0.0),
+            r.y_axis.extend(0.0),
+            r.z_axis.extend(0.0),
+            c.extend(1.0),
+        )
     }
 
     fn inverse(s: &Similarity) -> Similarity {
-        let rt = transpose3(&s.rotation);
-        let t: Vec<f64> = (0..3)
-            .map(|i| -(0..3).map(|k| rt[i][k] * s.translation[k]).sum::<f64>() / s.scale)
-            .collect();
+        let rt = s.rotation.transpose();
         Similarity {
             rotation: rt,
             scale: 1.0 / s.scale,
-            translation: [t[0], t[1], t[2]],
+            translation: -(rt * s.translation) / s.scale,
         }
     }
 
     /// Cameras (camera-to-world, GT frame) on a wavy ring around the scene,
     /// looking at its middle.
-    fn gt_frame_cameras() -> Vec<([[f64; 3]; 3], [f64; 3])> {
+    fn gt_frame_cameras() -> Vec<(DMat3, DVec3)> {
         (0..40)
             .map(|i| {
                 let th = i as f64 / 40.0 * std::f64::consts::TAU;
-                let c = [
+                let c = DVec3::new(
                     1.0 + 1.6 * th.cos(),
                     0.4 + 1.6 * th.sin(),
                     0.8 + 0.2 * (3.0 * th).sin(),
-                ];
-                // Yaw towards the centre, then pitch down a little.
-                let r = matmul3(
-                    &rotation([0.0, 0.0, 1.0], th + std::f64::consts::PI),
-                    &rotation([0.0, 1.0, 0.0], 0.3),
                 );
+                // Yaw towards the centre, then pitch down a little.
+                let r = rotation([0.0, 0.0, 1.0], th + std::f64::consts::PI)
+                    * rotation([0.0, 1.0, 0.0], 0.3);
                 (r, c)
             })
             .collect()
@@ -670,9 +658,9 @@ mod tests {
 
     struct Setup {
         gt_points: Vec<[f64; 3]>,
-        gt_traj: Vec<Mat4>,
-        gt_trans: Mat4,
-        rec_traj: Vec<Mat4>,
+        gt_traj: Vec<DMat4>,
+        gt_trans: DMat4,
+        rec_traj: Vec<DMat4>,
         /// GT frame → reconstruction frame.
         s: Similarity,
     }
@@ -687,27 +675,22 @@ mod tests {
         let g = Similarity {
             rotation: rotation([0.0, 0.0, 1.0], 0.3),
             scale: 0.8,
-            translation: [0.5, -0.2, 1.0],
+            translation: DVec3::new(0.5, -0.2, 1.0),
         };
         let g_inv = inverse(&g);
         let s = Similarity {
             rotation: rotation([1.0, 2.0, -1.0], 0.7),
             scale: 2.5,
-            translation: [3.0, -1.0, 0.5],
+            translation: DVec3::new(3.0, -1.0, 0.5),
         };
         let cams = gt_frame_cameras();
         let gt_traj = cams
             .iter()
-            .map(|(r, c)| {
-                pose(
-                    &matmul3(&g_inv.rotation, r),
-                    transform_point(&g_inv.matrix(), c),
-                )
-            })
+            .map(|(r, c)| pose(&(g_inv.rotation * *r), g_inv.matrix().project_point3(*c)))
             .collect();
         let rec_traj = cams
             .iter()
-            .map(|(r, c)| pose(&matmul3(&s.rotation, r), transform_point(&s.matrix(), c)))
+            .map(|(r, c)| pose(&(s.rotation * *r), s.matrix().project_point3(*c)))
             .collect();
         Setup {
             gt_points,
@@ -718,11 +701,11 @@ mod tests {
         }
     }
 
-    fn max_abs_diff(a: &Mat4, b: &Mat4) -> f64 {
-        a.iter()
-            .flatten()
-            .zip(b.iter().flatten())
-            .map(|(x, y)| (x - y).abs())
+    fn max_abs_diff(a: &DMat4, b: &DMat4) -> f64 {
+        (*a - *b)
+            .abs()
+            .to_cols_array()
+            .into_iter()
             .fold(0.0, f64::max)
     }
 
@@ -853,7 +836,7 @@ mod tests {
             (rep.bin_edges.clone(), rep.cum_precision.clone()),
             (vec![0.0], vec![0.0])
         );
-        let run = |tau: f64, rec_traj: &[Mat4]| {
+        let run = |tau: f64, rec_traj: &[DMat4]| {
             evaluate_tnt(
                 &rec,
                 rec_traj,
@@ -920,8 +903,8 @@ mod tests {
             precision: 0.25,
             recall: 0.5,
             fscore: 1.0 / 3.0,
-            transformation: IDENTITY4,
-            trajectory_transformation: IDENTITY4,
+            transformation: DMat4::IDENTITY,
+            trajectory_transformation: DMat4::IDENTITY,
             trajectory_fitness: 1.0,
             trajectory_rmse: 0.0,
             refinement: Vec::new(),

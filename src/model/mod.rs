@@ -1,6 +1,6 @@
-//! In-memory scene types and the plain value types shared by the layers
-//! (crop volume, seeded generator). Storage is f32 (as in the files);
-//! algorithms accumulate in f64 where precision matters.
+//! In-memory scene types, and the plain value types shared by the layers
+//! (similarity transform, crop volume, seeded generator). Storage is f32 (as
+//! in the files); algorithms accumulate in f64 where precision matters.
 
 pub mod attributes;
 pub mod camera;
@@ -9,6 +9,7 @@ pub mod gaussians;
 pub mod mesh;
 pub mod point_cloud;
 pub mod rng;
+pub mod transform;
 pub mod triangle_soup;
 
 /// SH coefficients of item `i`, coefficient-major with the DC term at k = 0,
@@ -31,4 +32,5 @@ pub use crop::{Axis, CropVolume};
 pub use gaussians::Gaussians;
 pub use mesh::Mesh;
 pub use point_cloud::PointCloud;
+pub use transform::Similarity;
 pub use triangle_soup::TriangleSoup;
