@@ -149,6 +149,12 @@ fn similarity_copy_scores_one() {
         assert!((row_norm(i) - 0.5).abs() < 1e-6, "row {i}: {}", row_norm(i));
     }
     assert!(std::fs::read(&plot).unwrap().starts_with(b"\x89PNG"));
+    // The plot is a 640×480 RGB PNG.
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&plot).unwrap()));
+    let reader = dec.read_info().unwrap();
+    let info = reader.info();
+    assert_eq!((info.width, info.height), (640, 480));
+    assert_eq!(info.color_type, png::ColorType::Rgb);
     assert!(vis.join("Barn.precision.ply").exists() && vis.join("Barn.recall.ply").exists());
 
     // Missing ground-truth files are named.
