@@ -5,10 +5,11 @@
 //! (F-score 1), and write the plot and the coloured clouds.
 
 use assert_cmd::Command;
-use splatkit::geom::crop::{Axis, CropVolume};
+use glam::{DMat4, DVec3};
 use splatkit::io::ply::{Format, points::write_points};
 use splatkit::io::tnt::{LogFrame, write_crop_json, write_log};
 use splatkit::model::PointCloud;
+use splatkit::model::crop::{Axis, CropVolume};
 
 const TAU: f64 = 0.01; // Barn's threshold
 
@@ -38,16 +39,9 @@ fn similarity(p: [f64; 3]) -> [f64; 3] {
 }
 
 fn pose(c: [f64; 3]) -> LogFrame {
-    let mut pose = [[0.0; 4]; 4];
-    for (i, row) in pose.iter_mut().enumerate() {
-        row[i] = 1.0;
-        if i < 3 {
-            row[3] = c[i];
-        }
-    }
     LogFrame {
         meta: [0, 0, 0],
-        pose,
+        pose: DMat4::from_translation(DVec3::from_array(c)),
     }
 }
 
@@ -155,6 +149,12 @@ fn similarity_copy_scores_one() {
         assert!((row_norm(i) - 0.5).abs() < 1e-6, "row {i}: {}", row_norm(i));
     }
     assert!(std::fs::read(&plot).unwrap().starts_with(b"\x89PNG"));
+    // The plot is a 640×480 RGB PNG.
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&plot).unwrap()));
+    let reader = dec.read_info().unwrap();
+    let info = reader.info();
+    assert_eq!((info.width, info.height), (640, 480));
+    assert_eq!(info.color_type, png::ColorType::Rgb);
     assert!(vis.join("Barn.precision.ply").exists() && vis.join("Barn.recall.ply").exists());
 
     // Missing ground-truth files are named.

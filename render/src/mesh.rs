@@ -9,6 +9,7 @@
 //! index. Depth is camera z (not ray length). Faces are two-sided; the normal
 //! is the geometric face normal turned toward the camera, in camera axes.
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::Camera;
@@ -57,12 +58,9 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
     if tw == 0 || th == 0 {
         return out;
     }
-    let view: Vec<[f64; 3]> = positions
+    let view: Vec<DVec3> = positions
         .par_iter()
-        .map(|p| {
-            let c = cam.to_camera(glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
-            [c.x, c.y, c.z]
-        })
+        .map(|p| cam.to_camera(DVec3::from_array(p.map(f64::from))))
         .collect();
     let full = [0.0, 0.0, w as f32, h as f32];
     let prepared: Vec<Option<Face>> = faces
@@ -73,12 +71,12 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                 return None;
             }
             let v = idx.map(|i| view[i]);
-            if v.iter().all(|p| p[2] <= near) || v.iter().flatten().any(|c| !c.is_finite()) {
+            if v.iter().all(|p| p.z <= near) || v.iter().any(|p| !p.is_finite()) {
                 return None;
             }
             // screen box; a face reaching behind the near plane may cover
             // any pixel, so it gets the whole image
-            let bbox = if v.iter().all(|p| p[2] > near) {
+            let bbox = if v.iter().all(|p| p.z > near) {
                 let mut b = [
                     f32::INFINITY,
                     f32::INFINITY,
@@ -87,8 +85,8 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                 ];
                 for p in &v {
                     let (x, y) = (
-                        (cam.fx * p[0] / p[2] + cam.cx) as f32,
-                        (cam.fy * p[1] / p[2] + cam.cy) as f32,
+                        (cam.fx * p.x / p.z + cam.cx) as f32,
+                        (cam.fy * p.y / p.z + cam.cy) as f32,
                     );
                     b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 }
@@ -99,7 +97,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
             } else {
                 full
             };
-            let depth = v.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min) as f32;
+            let depth = v.iter().map(|p| p.z).fold(f64::INFINITY, f64::min) as f32;
             Some(Face {
                 tri: RayTriangle::new(&v),
                 bbox,
@@ -158,7 +156,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                     if fd > slot.0 {
                         continue;
                     }
-                    let d = [(x as f64 + 0.5 - cam.cx) / cam.fx, dy, 1.0];
+                    let d = DVec3::new((x as f64 + 0.5 - cam.cx) / cam.fx, dy, 1.0);
                     if let Some((z, u, v)) = f.tri.hit(d)
                         && z > near
                         && (z < slot.0 || (z == slot.0 && fi < slot.1))
@@ -178,13 +176,13 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                     return (NO_FACE, [0.0; 2], 0.0, [0.0; 3]);
                 }
                 let f = prepared[fi as usize].as_ref().expect("winner exists");
-                let d = [
+                let d = DVec3::new(
                     (x as f64 + 0.5 - cam.cx) / cam.fx,
                     (y as f64 + 0.5 - cam.cy) / cam.fy,
                     1.0,
-                ];
+                );
                 let n = f.tri.facing_normal(d);
-                (fi, [u as f32, v as f32], z as f32, n.map(|c| c as f32))
+                (fi, [u as f32, v as f32], z as f32, n.as_vec3().to_array())
             })
             .collect()
     };
@@ -197,28 +195,10 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
     out
 }
 
-type V3 = [f64; 3];
-
-fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// Ray from the camera centre along `d` (d.z = 1) against triangle `v`
 /// (camera space, Möller–Trumbore): camera z of the hit and barycentrics
 /// (u, v) of vertices 1 and 2. Degenerate (zero-area) triangles never hit.
-pub fn intersect(v: &[V3; 3], d: V3) -> Option<(f64, f64, f64)> {
+pub fn intersect(v: &[DVec3; 3], d: DVec3) -> Option<(f64, f64, f64)> {
     RayTriangle::new(v).hit(d)
 }
 
@@ -228,58 +208,58 @@ pub fn intersect(v: &[V3; 3], d: V3) -> Option<(f64, f64, f64)> {
 /// what [`intersect`] gives.
 #[derive(Clone, Copy, Debug)]
 pub struct RayTriangle {
-    e1: V3,
-    e2: V3,
-    s: V3,
-    q: V3,
+    e1: DVec3,
+    e2: DVec3,
+    s: DVec3,
+    q: DVec3,
     e2q: f64,
     degenerate: bool,
 }
 
 impl RayTriangle {
-    pub fn new(v: &[V3; 3]) -> RayTriangle {
-        let e1 = sub(v[1], v[0]);
-        let e2 = sub(v[2], v[0]);
-        let s = [-v[0][0], -v[0][1], -v[0][2]];
-        let q = cross(s, e1);
-        let n = cross(e1, e2);
+    pub fn new(v: &[DVec3; 3]) -> RayTriangle {
+        let e1 = v[1] - v[0];
+        let e2 = v[2] - v[0];
+        let s = -v[0];
+        let q = s.cross(e1);
+        let n = e1.cross(e2);
         RayTriangle {
             e1,
             e2,
             s,
             q,
-            e2q: dot(e2, q),
-            degenerate: dot(n, n) == 0.0,
+            e2q: e2.dot(q),
+            degenerate: n.dot(n) == 0.0,
         }
     }
 
     /// The unit normal turned toward a ray along `d` (zero for a degenerate
     /// triangle, which never wins a pixel).
-    pub fn facing_normal(&self, d: V3) -> V3 {
-        let n = cross(self.e1, self.e2);
-        let l = dot(n, n).sqrt();
+    pub fn facing_normal(&self, d: DVec3) -> DVec3 {
+        let n = self.e1.cross(self.e2);
+        let l = n.length();
         if l == 0.0 {
-            return [0.0; 3];
+            return DVec3::ZERO;
         }
-        let n = n.map(|c| c / l);
-        if dot(n, d) > 0.0 { n.map(|c| -c) } else { n }
+        let n = n / l;
+        if n.dot(d) > 0.0 { -n } else { n }
     }
 
     /// Camera z and barycentrics (u, v) of the hit of the ray along `d`
     /// (d.z = 1), `None` when it misses.
     #[inline]
-    pub fn hit(&self, d: V3) -> Option<(f64, f64, f64)> {
-        let p = cross(d, self.e2);
-        let det = dot(self.e1, p);
+    pub fn hit(&self, d: DVec3) -> Option<(f64, f64, f64)> {
+        let p = d.cross(self.e2);
+        let det = self.e1.dot(p);
         if det.abs() < 1e-300 {
             return None;
         }
         let inv = 1.0 / det;
-        let u = dot(self.s, p) * inv;
+        let u = self.s.dot(p) * inv;
         if !(0.0..=1.0).contains(&u) {
             return None;
         }
-        let vv = dot(d, self.q) * inv;
+        let vv = d.dot(self.q) * inv;
         if vv < 0.0 || u + vv > 1.0 {
             return None;
         }
@@ -407,14 +387,14 @@ mod tests {
         let got = render(&pos, &faces, &cam, near);
         for y in 0..50 {
             for x in 0..70 {
-                let d = [
+                let d = DVec3::new(
                     (x as f64 + 0.5 - cam.cx) / cam.fx,
                     (y as f64 + 0.5 - cam.cy) / cam.fy,
                     1.0,
-                ];
+                );
                 let mut best = (f64::INFINITY, NO_FACE, 0.0, 0.0);
                 for (fi, f) in faces.iter().enumerate() {
-                    let v = f.map(|i| pos[i as usize].map(|c| c as f64));
+                    let v = f.map(|i| DVec3::from_array(pos[i as usize].map(|c| c as f64)));
                     if let Some((z, u, vv)) = intersect(&v, d)
                         && z > near
                         && z < best.0

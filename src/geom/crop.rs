@@ -1,67 +1,21 @@
-//! Crop volumes: a polygon prism along one coordinate axis, as stored in the
-//! Tanks-and-Temples `<Scene>.json` files (Open3D `SelectionPolygonVolume`).
+//! Cropping by a [`CropVolume`] (a polygon prism along one coordinate axis,
+//! as stored in the Tanks-and-Temples `<Scene>.json` files; Open3D
+//! `SelectionPolygonVolume`).
 //!
-//! [`CropVolume::contains`] reproduces Open3D's
+//! [`Crop::contains`] reproduces Open3D's
 //! `SelectionPolygonVolume::CropInPolygon` (identical in 0.10 and 0.18)
 //! decision for every point, including its boundary rules, so that the same
-//! points survive cropping as in the TnT toolbox. Reading and writing the JSON
-//! form lives in [`crate::io::tnt`].
+//! points survive cropping as in the TnT toolbox. The volume itself is a
+//! plain value of [`crate::model::crop`]; reading and writing its JSON form
+//! lives in [`crate::io::tnt`].
 
 use rayon::prelude::*;
 
-/// The coordinate axis a crop prism extends along (its "orthogonal axis").
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Axis {
-    /// Prism along x; the polygon lives in the (y, z) plane.
-    X,
-    /// Prism along y; the polygon lives in the (x, z) plane.
-    Y,
-    /// Prism along z; the polygon lives in the (x, y) plane.
-    Z,
-}
+use crate::model::CropVolume;
 
-impl Axis {
-    /// The coordinate indices (u, v, w) Open3D uses for this axis: (u, v) is
-    /// the polygon plane, w the prism axis. X → (1, 2, 0), Y → (0, 2, 1),
-    /// Z → (0, 1, 2).
-    pub fn uvw(self) -> (usize, usize, usize) {
-        match self {
-            Axis::X => (1, 2, 0),
-            Axis::Y => (0, 2, 1),
-            Axis::Z => (0, 1, 2),
-        }
-    }
-
-    /// The upper-case letter used in the JSON files ("X", "Y" or "Z").
-    pub fn letter(self) -> &'static str {
-        match self {
-            Axis::X => "X",
-            Axis::Y => "Y",
-            Axis::Z => "Z",
-        }
-    }
-}
-
-/// A polygon prism: points whose coordinate along `orthogonal_axis` lies in
-/// `[axis_min, axis_max]` (both inclusive) and whose projection onto the
-/// other two coordinates falls inside `bounding_polygon`.
-///
-/// Units are those of the point cloud (metres for TnT ground truth).
-#[derive(Clone, Debug, PartialEq)]
-pub struct CropVolume {
-    /// Axis the prism extends along.
-    pub orthogonal_axis: Axis,
-    /// Lower bound along the axis (inclusive).
-    pub axis_min: f64,
-    /// Upper bound along the axis (inclusive).
-    pub axis_max: f64,
-    /// Polygon vertices as full 3-D points (the axis coordinate is ignored);
-    /// closed implicitly (last vertex connects to the first). Open3D stores
-    /// the TnT polygons this way, and so does this type.
-    pub bounding_polygon: Vec<[f64; 3]>,
-}
-
-impl CropVolume {
+/// The cropping operations on a [`CropVolume`]; bring the trait into scope
+/// to call them as methods (`volume.crop(&points)`).
+pub trait Crop {
     /// True when `p` is inside the volume, with exactly Open3D's
     /// `CropInPolygon` rule:
     ///
@@ -78,7 +32,20 @@ impl CropVolume {
     /// fewer than 3 vertices contains nothing. As in Open3D, a NaN coordinate
     /// along the axis passes the bound test (comparisons with NaN are false)
     /// and a NaN in the polygon plane makes the point outside.
-    pub fn contains(&self, p: &[f64; 3]) -> bool {
+    fn contains(&self, p: &[f64; 3]) -> bool;
+
+    /// Indices of the points inside the volume, in input order (Open3D's
+    /// `CropInPolygon` output). Runs on the rayon pool; the result does not
+    /// depend on the thread count.
+    fn crop_indices(&self, points: &[[f64; 3]]) -> Vec<usize>;
+
+    /// The points inside the volume, in input order (Open3D's
+    /// `SelectionPolygonVolume::CropPointCloud`).
+    fn crop(&self, points: &[[f64; 3]]) -> Vec<[f64; 3]>;
+}
+
+impl Crop for CropVolume {
+    fn contains(&self, p: &[f64; 3]) -> bool {
         let (u, v, w) = self.orthogonal_axis.uvw();
         // Written as in Open3D: NaN passes this test and is rejected below.
         if p[w] < self.axis_min || p[w] > self.axis_max {
@@ -100,10 +67,7 @@ impl CropVolume {
         below % 2 == 1
     }
 
-    /// Indices of the points inside the volume, in input order (Open3D's
-    /// `CropInPolygon` output). Runs on the rayon pool; the result does not
-    /// depend on the thread count.
-    pub fn crop_indices(&self, points: &[[f64; 3]]) -> Vec<usize> {
+    fn crop_indices(&self, points: &[[f64; 3]]) -> Vec<usize> {
         points
             .par_iter()
             .enumerate()
@@ -113,9 +77,7 @@ impl CropVolume {
             .collect()
     }
 
-    /// The points inside the volume, in input order (Open3D's
-    /// `SelectionPolygonVolume::CropPointCloud`).
-    pub fn crop(&self, points: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    fn crop(&self, points: &[[f64; 3]]) -> Vec<[f64; 3]> {
         points
             .par_iter()
             .with_min_len(4096)
@@ -128,7 +90,9 @@ impl CropVolume {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::{RngExt, SeedableRng};
+    use crate::model::crop::Axis;
+    use crate::model::rng;
+    use rand::RngExt;
 
     fn unit_square_z() -> CropVolume {
         CropVolume {
@@ -246,7 +210,7 @@ mod tests {
             }
             angle.abs() > std::f64::consts::PI
         };
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let mut rng = rng::seeded(3);
         let pts: Vec<[f64; 3]> = (0..5000)
             .map(|_| {
                 [

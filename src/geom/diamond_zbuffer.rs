@@ -13,6 +13,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use glam::DVec3;
 use rayon::prelude::*;
 use splatkit_render::Camera;
 use splatkit_render::gaussian::Gaussians3;
@@ -36,13 +37,10 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
         .with_min_len(256)
         .for_each(|i| {
             let q = diamond_corners(g, i, c);
-            let v: [[f64; 3]; 4] = q.map(|p| {
-                let p = cam.to_camera(glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
-                [p.x, p.y, p.z]
-            });
-            let finite = v.map(|p| p.iter().all(|c| c.is_finite()));
+            let v: [DVec3; 4] = q.map(|p| cam.to_camera(DVec3::from_array(p.map(f64::from))));
+            let finite = v.map(|p| p.is_finite());
             let tris = [[0usize, 1, 2], [0, 2, 3]].map(|t| {
-                (t.iter().all(|&k| finite[k]) && t.iter().any(|&k| v[k][2] > near)).then_some(t)
+                (t.iter().all(|&k| finite[k]) && t.iter().any(|&k| v[k].z > near)).then_some(t)
             });
             if tris.iter().all(|t| t.is_none()) {
                 return;
@@ -51,7 +49,7 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
             // the near plane may cover any pixel, so it gets the whole image
             let used = |k: usize| tris.iter().flatten().any(|t| t.contains(&k));
             let (mut x0, mut y0, mut x1, mut y1) = (0.0f64, 0.0f64, w as f64, h as f64);
-            if (0..4).all(|k| !used(k) || v[k][2] > near) {
+            if (0..4).all(|k| !used(k) || v[k].z > near) {
                 (x0, y0, x1, y1) = (
                     f64::INFINITY,
                     f64::INFINITY,
@@ -60,8 +58,8 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
                 );
                 for k in (0..4).filter(|&k| used(k)) {
                     let (px, py) = (
-                        cam.fx * v[k][0] / v[k][2] + cam.cx,
-                        cam.fy * v[k][1] / v[k][2] + cam.cy,
+                        cam.fx * v[k].x / v[k].z + cam.cx,
+                        cam.fy * v[k].y / v[k].z + cam.cy,
                     );
                     (x0, y0, x1, y1) = (x0.min(px), y0.min(py), x1.max(px), y1.max(py));
                 }
@@ -81,7 +79,7 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
             for y in py0..py1 {
                 let dy = (y as f64 + 0.5 - cam.cy) / cam.fy;
                 for x in px0..px1 {
-                    let d = [(x as f64 + 0.5 - cam.cx) / cam.fx, dy, 1.0];
+                    let d = DVec3::new((x as f64 + 0.5 - cam.cx) / cam.fx, dy, 1.0);
                     let mut best = f64::INFINITY;
                     for t in prepared.iter().flatten() {
                         if let Some((z, _, _)) = t.hit(d)

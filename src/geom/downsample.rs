@@ -10,9 +10,9 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hash, Hasher};
 
-use rand::{RngExt, SeedableRng};
-use rand_pcg::Pcg64Mcg;
+use rand::RngExt;
 
+use crate::model::rng;
 use crate::{Error, Result};
 
 /// Integer block coordinates, hashed by a multiplicative mix.
@@ -205,12 +205,12 @@ impl KeptGrid {
 
 /// A uniformly random permutation of `0..n`, reproducible from `seed`:
 /// Fisher–Yates from the back (`for i in (1..n).rev()`, swap `i` with a
-/// uniform `j` in `0..=i`) driven by `Pcg64Mcg::seed_from_u64(seed)`.
+/// uniform `j` in `0..=i`) driven by [`rng::seeded`]`(seed)`.
 /// This replaces the reference's unseeded `np.random.default_rng().shuffle`
 /// (DTU step 3), so downsampling results are repeatable.
 pub fn seeded_permutation(n: usize, seed: u64) -> Vec<usize> {
     let mut perm: Vec<usize> = (0..n).collect();
-    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut rng = rng::seeded(seed);
     for i in (1..n).rev() {
         let j = rng.random_range(0..=i);
         perm.swap(i, j);
@@ -386,6 +386,8 @@ mod rounds {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
+    use rand_pcg::Pcg64Mcg;
 
     /// The same walk by brute force: compare with every kept point.
     fn brute(points: &[[f64; 3]], order: &[usize], r: f64) -> Vec<usize> {

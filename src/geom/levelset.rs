@@ -28,12 +28,13 @@
 //! first valid rays in sampled order). Output order: camera, then level, then
 //! ray; deterministic for a given seed whatever the thread count.
 
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 use rayon::prelude::*;
 use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 
 use crate::geom::diamond_zbuffer::diamond_zbuffer;
 use crate::geom::knn::NnIndex;
+use crate::model::rng;
 use crate::model::{Camera, Column, PointCloud, Property, ScalarData};
 use crate::{Error, Result};
 
@@ -369,9 +370,7 @@ pub fn sample_levelset(
             continue;
         }
         // 2·cap random covered pixels, without replacement (partial shuffle)
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(
-            opts.seed ^ (ci as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
-        );
+        let mut rng = rng::golden_stream(opts.seed, ci as u64);
         let mut pool = covered;
         let take = (2 * per_view).min(pool.len());
         for k in 0..take {

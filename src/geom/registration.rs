@@ -4,81 +4,30 @@
 //! each reproducing the Open3D 0.10 behaviour the Tanks-and-Temples toolbox
 //! relies on (see `eval_tsdf.md` §2.3).
 //!
-//! Conventions: transforms are 4×4 row-major matrices ([`Mat4`], `m[row][col]`)
-//! acting on column vectors, `p' = M·[p, 1]`; a similarity is
-//! `p' = s·R·p + t`, stored as `[[s·R, t], [0, 0, 0, 1]]`. Composition
-//! `mat4_mul(a, b)` applies `b` first.
+//! Conventions: transforms are glam [`DMat4`]s acting on column vectors,
+//! `p' = M·[p, 1]`; a [`Similarity`] is `p' = s·R·p + t`, its matrix
+//! `[[s·R, t], [0, 0, 0, 1]]`. Composition `a * b` applies `b` first. Point
+//! sets are slices of `[f64; 3]`, as the callers store their clouds.
 
-use rand::{RngExt, SeedableRng};
+use glam::{DMat3, DMat4, DVec3};
+use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::geom::knn::NnIndex;
+use crate::model::Similarity;
+use crate::model::rng;
 use crate::{Error, Result};
 
-/// A 4×4 row-major homogeneous transform (`m[row][col]`), acting on column
-/// vectors.
-pub type Mat4 = [[f64; 4]; 4];
-
-/// The 4×4 identity.
-pub const IDENTITY4: Mat4 = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
-
-/// The product `a·b` (apply `b`, then `a`).
-pub fn mat4_mul(a: &Mat4, b: &Mat4) -> Mat4 {
-    let mut m = [[0.0; 4]; 4];
-    for (mr, ar) in m.iter_mut().zip(a) {
-        for (c, v) in mr.iter_mut().enumerate() {
-            *v = ar[0] * b[0][c] + ar[1] * b[1][c] + ar[2] * b[2][c] + ar[3] * b[3][c];
-        }
-    }
-    m
-}
-
-/// `M·[p, 1]` divided by its homogeneous coordinate, as Open3D's
-/// `PointCloud::Transform` does (the division is exact for affine matrices,
-/// whose last row is `[0, 0, 0, 1]`).
-pub fn transform_point(m: &Mat4, p: &[f64; 3]) -> [f64; 3] {
-    let r = |row: &[f64; 4]| row[0] * p[0] + row[1] * p[1] + row[2] * p[2] + row[3];
-    let w = r(&m[3]);
-    [r(&m[0]) / w, r(&m[1]) / w, r(&m[2]) / w]
-}
-
-/// [`transform_point`] on every point, in order (parallel).
-pub fn transform_points(m: &Mat4, points: &[[f64; 3]]) -> Vec<[f64; 3]> {
+/// `m` applied to every point as Open3D's `PointCloud::Transform` does:
+/// `M·[p, 1]` divided by its homogeneous coordinate
+/// ([`DMat4::project_point3`]; the division is exact for affine matrices,
+/// whose last row is `[0, 0, 0, 1]`). In order, in parallel.
+pub fn transform_points(m: &DMat4, points: &[[f64; 3]]) -> Vec<[f64; 3]> {
     points
         .par_iter()
         .with_min_len(8192)
-        .map(|p| transform_point(m, p))
+        .map(|p| m.project_point3(DVec3::from_array(*p)).to_array())
         .collect()
-}
-
-/// A similarity transform `p' = scale·rotation·p + translation`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Similarity {
-    /// Proper rotation (det = +1), row-major.
-    pub rotation: [[f64; 3]; 3],
-    /// Uniform scale (1 when estimated without scaling).
-    pub scale: f64,
-    /// Translation.
-    pub translation: [f64; 3],
-}
-
-impl Similarity {
-    /// The 4×4 matrix `[[scale·R, t], [0, 0, 0, 1]]`.
-    pub fn matrix(&self) -> Mat4 {
-        let mut m = IDENTITY4;
-        for (r, (mr, rr)) in m.iter_mut().zip(&self.rotation).enumerate() {
-            for c in 0..3 {
-                mr[c] = self.scale * rr[c];
-            }
-            mr[3] = self.translation[r];
-        }
-        m
-    }
 }
 
 /// Least-squares similarity (or rigid transform when `with_scaling` is false)
@@ -104,32 +53,25 @@ pub fn umeyama(src: &[[f64; 3]], dst: &[[f64; 3]], with_scaling: bool) -> Option
     }
     let inv_n = 1.0 / src.len() as f64;
     let mean = |pts: &[[f64; 3]]| {
-        let mut m = [0.0; 3];
-        for p in pts {
-            for k in 0..3 {
-                m[k] += p[k];
-            }
-        }
-        [m[0] * inv_n, m[1] * inv_n, m[2] * inv_n]
+        pts.iter()
+            .fold(DVec3::ZERO, |m, p| m + DVec3::from_array(*p))
+            * inv_n
     };
     let (ms, md) = (mean(src), mean(dst));
-    // Cross-covariance S[a][b] = Σ src'_a · dst'_b and the source spread.
-    let mut s = [[0.0f64; 3]; 3];
+    // Cross-covariance S = Σ src'·dst'ᵀ (S[a][b] = Σ src'_a · dst'_b, so
+    // column b gains src'·dst'_b) and the source spread.
+    let mut s = DMat3::ZERO;
     let mut src_ss = 0.0;
     for (p, q) in src.iter().zip(dst) {
-        let a = [p[0] - ms[0], p[1] - ms[1], p[2] - ms[2]];
-        let b = [q[0] - md[0], q[1] - md[1], q[2] - md[2]];
-        for (sr, ai) in s.iter_mut().zip(a) {
-            for (v, bj) in sr.iter_mut().zip(b) {
-                *v += ai * bj;
-            }
-        }
-        src_ss += a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
+        let a = DVec3::from_array(*p) - ms;
+        let b = DVec3::from_array(*q) - md;
+        s += DMat3::from_cols(a * b.x, a * b.y, a * b.z);
+        src_ss += a.dot(a);
     }
-    if !src_ss.is_finite() || s.iter().flatten().any(|v| !v.is_finite()) {
+    if !src_ss.is_finite() || !s.is_finite() {
         return None;
     }
-    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
+    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s.transpose().to_cols_array_2d();
     // Horn (1987), eq. for N with the quaternion ordered (w, x, y, z).
     let n = [
         [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
@@ -143,28 +85,21 @@ pub fn umeyama(src: &[[f64; 3]], dst: &[[f64; 3]], with_scaling: bool) -> Option
         if src_ss <= 0.0 {
             return None;
         }
-        // Σ dst'·(R src') = Σ_ab R[b][a] S[a][b] = trace(R·S).
+        // Σ dst'·(R src') = Σ_ab R[b][a] S[a][b] = trace(R·S), accumulated
+        // in this order (a `trace()` of the glam product would round
+        // differently).
         let mut num = 0.0;
-        for (a, sr) in s.iter().enumerate() {
-            for (b, sab) in sr.iter().enumerate() {
-                num += rotation[b][a] * sab;
+        for a in 0..3 {
+            for b in 0..3 {
+                num += rotation.col(a)[b] * s.col(b)[a];
             }
         }
         num / src_ss
     } else {
         1.0
     };
-    let rm = [
-        rotation[0][0] * ms[0] + rotation[0][1] * ms[1] + rotation[0][2] * ms[2],
-        rotation[1][0] * ms[0] + rotation[1][1] * ms[1] + rotation[1][2] * ms[2],
-        rotation[2][0] * ms[0] + rotation[2][1] * ms[1] + rotation[2][2] * ms[2],
-    ];
-    let translation = [
-        md[0] - scale * rm[0],
-        md[1] - scale * rm[1],
-        md[2] - scale * rm[2],
-    ];
-    if !scale.is_finite() || translation.iter().any(|v| !v.is_finite()) {
+    let translation = md - (rotation * ms) * scale;
+    if !scale.is_finite() || !translation.is_finite() {
         return None;
     }
     Some(Similarity {
@@ -175,10 +110,15 @@ pub fn umeyama(src: &[[f64; 3]], dst: &[[f64; 3]], with_scaling: bool) -> Option
 }
 
 /// Rotation matrix of the quaternion (w, x, y, z), normalised first.
-fn quat_to_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
+///
+/// Written out rather than as glam's `DMat3::from_quat` of a normalised
+/// `DQuat`: glam normalises by multiplying with 1/‖q‖ and builds the diagonal
+/// as 1 − 2(y² + z²), both of which round differently from this form, and
+/// every RANSAC / ICP result (hence the TnT numbers) follows these roundings.
+fn quat_to_matrix(q: [f64; 4]) -> DMat3 {
     let norm = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
     let [w, x, y, z] = q.map(|c| c / norm);
-    [
+    let rows = [
         [
             w * w + x * x - y * y - z * z,
             2.0 * (x * y - w * z),
@@ -194,14 +134,24 @@ fn quat_to_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
             2.0 * (y * z + w * x),
             w * w - x * x - y * y + z * z,
         ],
-    ]
+    ];
+    DMat3::from_cols_array_2d(&rows).transpose()
 }
 
 /// Unit eigenvector of the largest eigenvalue of a symmetric 4×4 matrix, by
 /// cyclic Jacobi rotations (converges quadratically; 4×4 needs a handful of
 /// sweeps). A zero matrix gives (1, 0, 0, 0).
+///
+/// Kept on row-major arrays: glam has no symmetric eigen-solver, and the
+/// rotations below work on rows and columns in place, in an order that fixes
+/// the rounding of every RANSAC / ICP result.
 fn top_eigenvector4(mut a: [[f64; 4]; 4]) -> [f64; 4] {
-    let mut v = IDENTITY4;
+    let mut v = [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
     for _sweep in 0..64 {
         let off: f64 = (0..4)
             .flat_map(|p| (p + 1..4).map(move |q| (p, q)))
@@ -255,7 +205,7 @@ fn top_eigenvector4(mut a: [[f64; 4]; 4]) -> [f64; 4] {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RegistrationResult {
     /// Source-to-target transform.
-    pub transformation: Mat4,
+    pub transformation: DMat4,
     /// Fraction of the correspondences (RANSAC) or source points (ICP) that
     /// are inliers.
     pub fitness: f64,
@@ -296,14 +246,6 @@ impl Default for RansacParams {
 /// results depend only on the seed.
 const RANSAC_CHUNK: usize = 512;
 
-/// SplitMix64 finaliser: decorrelates the per-chunk seeds.
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// One scored hypothesis; ordered by inlier count (more is better), then
 /// RMSE (lower is better), then iteration (earlier is better).
 #[derive(Clone, Copy)]
@@ -311,7 +253,7 @@ struct Hypothesis {
     inliers: usize,
     rmse: f64,
     iteration: usize,
-    transformation: Mat4,
+    transformation: DMat4,
 }
 
 fn better(a: Hypothesis, b: Hypothesis) -> Hypothesis {
@@ -339,8 +281,8 @@ fn better(a: Hypothesis, b: Hypothesis) -> Hypothesis {
 ///
 /// The only intended difference: Open3D seeds `std::mt19937` from
 /// `std::random_device` (results vary run to run) and draws `rng() % n`; this
-/// function draws from PCG64 streams derived from `seed` and the index of
-/// each block of 512 iterations, so the result is reproducible and
+/// function draws from the crate's generator, one stream per block of 512
+/// iterations ([`rng::stream`]`(seed, block)`), so the result is reproducible and
 /// independent of the rayon thread count. Degenerate samples (all drawn
 /// sources equal) score no inliers, as Eigen's NaN transform does in Open3D.
 ///
@@ -382,9 +324,7 @@ pub fn ransac_on_correspondences(
     let best = (0..chunks)
         .into_par_iter()
         .filter_map(|chunk| {
-            let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(splitmix64(
-                params.seed ^ splitmix64(chunk as u64),
-            ));
+            let mut rng = rng::stream(params.seed, chunk as u64);
             let first = chunk * RANSAC_CHUNK;
             let last = (first + RANSAC_CHUNK).min(params.max_iteration);
             let mut s = vec![[0.0; 3]; params.ransac_n];
@@ -402,9 +342,9 @@ pub fn ransac_on_correspondences(
                 let t = sim.matrix();
                 let (mut inliers, mut err2) = (0usize, 0.0f64);
                 for (p, q) in src.iter().zip(dst) {
-                    let tp = transform_point(&t, p);
-                    let e =
-                        (tp[0] - q[0]).powi(2) + (tp[1] - q[1]).powi(2) + (tp[2] - q[2]).powi(2);
+                    let e = t
+                        .project_point3(DVec3::from_array(*p))
+                        .distance_squared(DVec3::from_array(*q));
                     if e < max_d2 {
                         inliers += 1;
                         err2 += e;
@@ -429,7 +369,7 @@ pub fn ransac_on_correspondences(
         .reduce_with(better);
     Ok(match best {
         None => RegistrationResult {
-            transformation: IDENTITY4,
+            transformation: DMat4::IDENTITY,
             fitness: 0.0,
             inlier_rmse: 0.0,
         },
@@ -506,7 +446,7 @@ pub struct IcpResult {
 pub fn icp_point_to_point(
     source: &[[f64; 3]],
     target: &[[f64; 3]],
-    init: &Mat4,
+    init: &DMat4,
     params: &IcpParams,
 ) -> Result<IcpResult> {
     let max_d = params.max_correspondence_distance;
@@ -522,7 +462,7 @@ pub fn icp_point_to_point(
         )));
     }
     let index = NnIndex::new(target)?;
-    let mut pcd = if *init == IDENTITY4 {
+    let mut pcd = if *init == DMat4::IDENTITY {
         source.to_vec()
     } else {
         transform_points(init, source)
@@ -536,8 +476,8 @@ pub fn icp_point_to_point(
             matches.iter().map(|&(i, j)| (pcd[i], target[j])).unzip();
         let update = umeyama(&s, &d, params.with_scaling)
             .map(|sim| sim.matrix())
-            .unwrap_or(IDENTITY4);
-        transformation = mat4_mul(&update, &transformation);
+            .unwrap_or(DMat4::IDENTITY);
+        transformation = update * transformation;
         pcd = transform_points(&update, &pcd);
         iterations += 1;
         let previous = current;
@@ -573,8 +513,7 @@ fn correspond(
     let mut err2 = 0.0;
     for (i, nn) in index.nearest_all(pcd).into_iter().enumerate() {
         let Some((j, _)) = nn else { continue };
-        let (p, q) = (pcd[i], target[j]);
-        let e = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2);
+        let e = DVec3::from_array(pcd[i]).distance_squared(DVec3::from_array(target[j]));
         if e < max_d2 {
             matches.push((i, j));
             err2 += e;
@@ -595,29 +534,36 @@ mod tests {
     use super::*;
 
     /// Rotation from an axis (normalised here) and an angle, by Rodrigues'
-    /// formula: an independent way to build ground-truth rotations.
-    pub(crate) fn axis_angle(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+    /// formula (rows as written): an independent way to build ground-truth
+    /// rotations.
+    pub(crate) fn axis_angle(axis: [f64; 3], angle: f64) -> DMat3 {
         let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
         let [x, y, z] = axis.map(|c| c / n);
         let (s, c) = angle.sin_cos();
         let t = 1.0 - c;
-        [
+        DMat3::from_cols_array_2d(&[
             [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
             [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
             [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
-        ]
+        ])
+        .transpose()
+    }
+
+    /// `m` applied to one point, as [`transform_points`] does.
+    fn transform_point(m: &DMat4, p: &[f64; 3]) -> [f64; 3] {
+        m.project_point3(DVec3::from_array(*p)).to_array()
     }
 
     fn known_similarity() -> Similarity {
         Similarity {
             rotation: axis_angle([0.3, -1.0, 0.5], 2.1),
             scale: 1.7,
-            translation: [0.4, -2.0, 3.5],
+            translation: DVec3::new(0.4, -2.0, 3.5),
         }
     }
 
     fn random_points(n: usize, seed: u64, half: f64) -> Vec<[f64; 3]> {
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let mut rng = rng::seeded(seed);
         (0..n)
             .map(|_| {
                 [
@@ -629,18 +575,16 @@ mod tests {
             .collect()
     }
 
-    fn max_abs_diff(a: &Mat4, b: &Mat4) -> f64 {
-        a.iter()
-            .flatten()
-            .zip(b.iter().flatten())
-            .map(|(x, y)| (x - y).abs())
+    fn max_abs_diff(a: &DMat4, b: &DMat4) -> f64 {
+        (*a - *b)
+            .abs()
+            .to_cols_array()
+            .into_iter()
             .fold(0.0, f64::max)
     }
 
-    fn det3(r: &[[f64; 3]; 3]) -> f64 {
-        r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
-            - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
-            + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0])
+    fn det3(r: &DMat3) -> f64 {
+        r.determinant()
     }
 
     #[test]
@@ -677,7 +621,7 @@ mod tests {
             let m = Similarity {
                 rotation: axis_angle([1.0, 2.0, 3.0], angle),
                 scale: 0.3,
-                translation: [1.0, 0.0, -1.0],
+                translation: DVec3::new(1.0, 0.0, -1.0),
             }
             .matrix();
             let dst: Vec<[f64; 3]> = src.iter().map(|p| transform_point(&m, p)).collect();
@@ -695,12 +639,11 @@ mod tests {
         let dst: Vec<[f64; 3]> = src.iter().map(|p| [-p[0], p[1] * 0.5, p[2]]).collect();
         let est = umeyama(&src, &dst, true).unwrap();
         assert!((det3(&est.rotation) - 1.0).abs() < 1e-12);
-        let cost = |m: &Mat4| -> f64 {
+        let cost = |m: &DMat4| -> f64 {
             src.iter()
                 .zip(&dst)
                 .map(|(p, q)| {
-                    let t = transform_point(m, p);
-                    (t[0] - q[0]).powi(2) + (t[1] - q[1]).powi(2) + (t[2] - q[2]).powi(2)
+                    DVec3::from_array(transform_point(m, p)).distance_squared(DVec3::from_array(*q))
                 })
                 .sum()
         };
@@ -712,40 +655,27 @@ mod tests {
             [1.0, 1.0, -1.0],
         ] {
             for angle in [1e-3, -1e-3] {
-                let d = axis_angle(axis, angle);
-                let mut r = [[0.0; 3]; 3];
-                for (i, row) in r.iter_mut().enumerate() {
-                    for (j, v) in row.iter_mut().enumerate() {
-                        *v = (0..3).map(|k| d[i][k] * est.rotation[k][j]).sum();
-                    }
-                }
+                let r = axis_angle(axis, angle) * est.rotation;
                 // Re-fit scale and translation for the perturbed rotation
                 // (scale = Σ dst'·R src' / Σ|src'|²).
                 let n = src.len() as f64;
-                let ms = src.iter().fold([0.0; 3], |a, p| {
-                    [a[0] + p[0] / n, a[1] + p[1] / n, a[2] + p[2] / n]
-                });
-                let md = dst.iter().fold([0.0; 3], |a, p| {
-                    [a[0] + p[0] / n, a[1] + p[1] / n, a[2] + p[2] / n]
-                });
+                let mean = |pts: &[[f64; 3]]| {
+                    pts.iter()
+                        .fold(DVec3::ZERO, |a, p| a + DVec3::from_array(*p) / n)
+                };
+                let (ms, md) = (mean(&src), mean(&dst));
                 let (mut num, mut den) = (0.0, 0.0);
                 for (p, q) in src.iter().zip(&dst) {
-                    let a = [p[0] - ms[0], p[1] - ms[1], p[2] - ms[2]];
-                    let b = [q[0] - md[0], q[1] - md[1], q[2] - md[2]];
-                    let ra: Vec<f64> = (0..3)
-                        .map(|i| (0..3).map(|k| r[i][k] * a[k]).sum())
-                        .collect();
-                    num += (0..3).map(|i| ra[i] * b[i]).sum::<f64>();
-                    den += a.iter().map(|v| v * v).sum::<f64>();
+                    let a = DVec3::from_array(*p) - ms;
+                    let b = DVec3::from_array(*q) - md;
+                    num += (r * a).dot(b);
+                    den += a.length_squared();
                 }
                 let s = num / den;
-                let rm: Vec<f64> = (0..3)
-                    .map(|i| (0..3).map(|k| r[i][k] * ms[k]).sum())
-                    .collect();
                 let sim = Similarity {
                     rotation: r,
                     scale: s,
-                    translation: [md[0] - s * rm[0], md[1] - s * rm[1], md[2] - s * rm[2]],
+                    translation: md - s * (r * ms),
                 };
                 assert!(
                     cost(&sim.matrix()) >= best - 1e-12,
@@ -771,7 +701,7 @@ mod tests {
     /// 30 % of the correspondences are gross outliers; RANSAC with the TnT
     /// settings (fewer iterations) still recovers the exact similarity, because
     /// an all-inlier sample fits the inliers exactly (RMSE ≈ 0) and so wins.
-    fn outlier_problem() -> (Vec<[f64; 3]>, Vec<[f64; 3]>, Mat4) {
+    fn outlier_problem() -> (Vec<[f64; 3]>, Vec<[f64; 3]>, DMat4) {
         let truth = known_similarity().matrix();
         let src = random_points(100, 21, 3.0);
         let mut dst: Vec<[f64; 3]> = src.iter().map(|p| transform_point(&truth, p)).collect();
@@ -867,7 +797,7 @@ mod tests {
             },
         )
         .unwrap();
-        assert_eq!(r.transformation, IDENTITY4);
+        assert_eq!(r.transformation, DMat4::IDENTITY);
         assert_eq!((r.fitness, r.inlier_rmse), (0.0, 0.0));
     }
 
@@ -897,7 +827,7 @@ mod tests {
         let truth = Similarity {
             rotation: axis_angle([0.2, 1.0, -0.4], 0.04),
             scale: 1.03,
-            translation: [0.02, -0.015, 0.01],
+            translation: DVec3::new(0.02, -0.015, 0.01),
         };
         let tm = truth.matrix();
         let inv = invert_similarity(&truth);
@@ -905,7 +835,7 @@ mod tests {
         let r = icp_point_to_point(
             &source,
             &target,
-            &IDENTITY4,
+            &DMat4::IDENTITY,
             &IcpParams {
                 max_iteration: 200,
                 relative_fitness: 0.0,
@@ -931,14 +861,15 @@ mod tests {
     #[test]
     fn icp_tnt_criteria_stop_on_fitness() {
         let target = surface_cloud();
-        let r = icp_point_to_point(&target, &target, &IDENTITY4, &IcpParams::tnt(0.05)).unwrap();
+        let r =
+            icp_point_to_point(&target, &target, &DMat4::IDENTITY, &IcpParams::tnt(0.05)).unwrap();
         assert_eq!(r.iterations, 1);
-        assert!(max_abs_diff(&r.registration.transformation, &IDENTITY4) < 1e-12);
+        assert!(max_abs_diff(&r.registration.transformation, &DMat4::IDENTITY) < 1e-12);
         // init is composed: a pre-transformed source comes back to it.
         let shift = Similarity {
             rotation: axis_angle([0.0, 0.0, 1.0], 0.0),
             scale: 1.0,
-            translation: [0.001, 0.0, 0.0],
+            translation: DVec3::new(0.001, 0.0, 0.0),
         };
         let src: Vec<[f64; 3]> = target
             .iter()
@@ -948,24 +879,23 @@ mod tests {
         assert!(max_abs_diff(&r.registration.transformation, &shift.matrix()) < 1e-12);
         // No matches: identity update, fitness 0, stop.
         let far: Vec<[f64; 3]> = target.iter().map(|p| [p[0] + 10.0, p[1], p[2]]).collect();
-        let r = icp_point_to_point(&far, &target, &IDENTITY4, &IcpParams::tnt(0.05)).unwrap();
+        let r = icp_point_to_point(&far, &target, &DMat4::IDENTITY, &IcpParams::tnt(0.05)).unwrap();
         assert_eq!(r.registration.fitness, 0.0);
-        assert_eq!(r.registration.transformation, IDENTITY4);
-        assert!(icp_point_to_point(&far, &target, &IDENTITY4, &IcpParams::tnt(-1.0)).is_err());
+        assert_eq!(r.registration.transformation, DMat4::IDENTITY);
+        assert!(
+            icp_point_to_point(&far, &target, &DMat4::IDENTITY, &IcpParams::tnt(-1.0)).is_err()
+        );
     }
 
     /// Inverse of a similarity as a matrix: (1/s)·Rᵀ·(p − t).
-    pub(crate) fn invert_similarity(s: &Similarity) -> Mat4 {
-        let mut m = IDENTITY4;
-        for (i, row) in m.iter_mut().take(3).enumerate() {
-            for (j, v) in row.iter_mut().take(3).enumerate() {
-                *v = s.rotation[j][i] / s.scale;
-            }
-            row[3] = -(0..3)
-                .map(|k| s.rotation[k][i] * s.translation[k])
-                .sum::<f64>()
-                / s.scale;
-        }
-        m
+    pub(crate) fn invert_similarity(s: &Similarity) -> DMat4 {
+        let rt = s.rotation.transpose() / s.scale;
+        let t = -(s.rotation.transpose() * s.translation) / s.scale;
+        DMat4::from_cols(
+            rt.x_axis.extend(0.0),
+            rt.y_axis.extend(0.0),
+            rt.z_axis.extend(0.0),
+            t.extend(1.0),
+        )
     }
 }

@@ -14,32 +14,12 @@
 //! Units are those of the vertex coordinates (millimetres for DTU). Faces
 //! index `vertices`; an index out of range is an [`Error`] naming the face.
 
-use rand::{RngExt, SeedableRng};
-use rand_pcg::Pcg64Mcg;
+use glam::DVec3;
+use rand::RngExt;
 use rayon::prelude::*;
 
+use crate::model::rng;
 use crate::{Error, Result};
-
-#[inline]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// numpy `np.cross` component formulas, same operation order.
-#[inline]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// numpy `np.linalg.norm(x, axis=-1)`: sqrt of the squares summed left to right.
-#[inline]
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
 
 /// Emits the DTU up-sampling points of one triangle `(v0, v1, v2)` at spacing
 /// `d` (DTU uses `d = 0.2` mm), reproducing `MeshSupSamp` as ported in
@@ -75,11 +55,16 @@ pub fn dtu_upsample(
     if !(d > 0.0 && d.is_finite()) || [v0, v1, v2].iter().flatten().any(|c| !c.is_finite()) {
         return;
     }
-    let e1 = sub(v1, v0);
-    let e2 = sub(v2, v0);
-    let l1 = norm(e1);
-    let l2 = norm(e2);
-    let a2 = norm(cross(e1, e2));
+    let v0 = DVec3::from_array(v0);
+    // glam computes these with numpy's operations: `cross` takes the
+    // products of `np.cross` (each the same, as multiplication commutes) and
+    // `length` is the sqrt of the squares summed left to right, as
+    // `np.linalg.norm(x, axis=-1)`; so the bits match the reference.
+    let e1 = DVec3::from_array(v1) - v0;
+    let e2 = DVec3::from_array(v2) - v0;
+    let l1 = e1.length();
+    let l2 = e2.length();
+    let a2 = e1.cross(e2).length();
     // A NaN area is dropped too, as by numpy's `area2 > 0` mask.
     if a2.is_nan() || a2 <= 0.0 {
         return;
@@ -113,11 +98,7 @@ pub fn dtu_upsample(
             if k1 + k2 >= 1.0 {
                 break;
             }
-            emit([
-                e1[0] * k1 + e2[0] * k2 + v0[0],
-                e1[1] * k1 + e2[1] * k2 + v0[1],
-                e1[2] * k1 + e2[2] * k2 + v0[2],
-            ]);
+            emit((e1 * k1 + e2 * k2 + v0).to_array());
             j += 1.0;
         }
         i += 1.0;
@@ -227,21 +208,13 @@ const UNIFORM_BLOCK: usize = 4096;
 /// density that does not match the mesh units.
 const MAX_UNIFORM_SAMPLES: f64 = 4_294_967_296.0;
 
-/// SplitMix64 finaliser: decorrelates the per-block seeds.
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// Face areas (half the cross-product norm); a NaN or infinite area counts as 0.
 fn face_areas(vertices: &[[f64; 3]], faces: &[[u32; 3]]) -> Vec<f64> {
     faces
         .iter()
         .map(|face| {
-            let [a, b, c] = corners(vertices, face);
-            let area = 0.5 * norm(cross(sub(b, a), sub(c, a)));
+            let [a, b, c] = corners(vertices, face).map(DVec3::from_array);
+            let area = 0.5 * (b - a).cross(c - a).length();
             if area.is_finite() { area } else { 0.0 }
         })
         .collect()
@@ -258,7 +231,7 @@ fn face_areas(vertices: &[[f64; 3]], faces: &[[u32; 3]]) -> Vec<f64> {
 /// vertex) are never chosen.
 ///
 /// Determinism: sample `k` belongs to block `k / 4096`, and each block draws
-/// from its own `Pcg64Mcg` seeded from `seed` and the block number, so the
+/// from its own generator, [`rng::stream`]`(seed, block)`, so the
 /// output depends only on the inputs and `seed`, not on the rayon thread count.
 ///
 /// Errors: a face index out of range; `count > 0` on a mesh of zero total
@@ -300,8 +273,7 @@ pub fn sample_area_uniform_with_faces(
         .zip(face_ids.par_chunks_mut(UNIFORM_BLOCK))
         .enumerate()
         .for_each(|(block, (pts, ids))| {
-            let block_seed = splitmix64(seed ^ splitmix64(block as u64));
-            let mut rng = Pcg64Mcg::seed_from_u64(block_seed);
+            let mut rng = rng::stream(seed, block as u64);
             for (p, id) in pts.iter_mut().zip(ids.iter_mut()) {
                 let u = rng.random::<f64>() * total;
                 let mut f = cdf.partition_point(|&c| c <= u);
@@ -447,11 +419,15 @@ mod tests {
             .sum()
     }
 
-    fn rng(seed: u64) -> Pcg64Mcg {
-        Pcg64Mcg::seed_from_u64(seed)
+    fn rng(seed: u64) -> rng::Rng {
+        rng::seeded(seed)
     }
 
-    fn random_triangle(r: &mut Pcg64Mcg, scale: f64) -> [[f64; 3]; 3] {
+    fn v(p: [f64; 3]) -> DVec3 {
+        DVec3::from_array(p)
+    }
+
+    fn random_triangle(r: &mut rng::Rng, scale: f64) -> [[f64; 3]; 3] {
         let mut p = || {
             [
                 r.random_range(-scale..scale),
@@ -464,9 +440,9 @@ mod tests {
 
     /// n1, n2 as the rule computes them (to pick the expected-count formula).
     fn grid_size(t: &[[f64; 3]; 3], d: f64) -> (f64, f64) {
-        let e1 = sub(t[1], t[0]);
-        let e2 = sub(t[2], t[0]);
-        let (l1, l2, a2) = (norm(e1), norm(e2), norm(cross(e1, e2)));
+        let e1 = v(t[1]) - v(t[0]);
+        let e2 = v(t[2]) - v(t[0]);
+        let (l1, l2, a2) = (e1.length(), e2.length(), e1.cross(e2).length());
         let thr = d * (l1 * l2 / a2).sqrt();
         ((l1 / thr).floor(), (l2 / thr).floor())
     }
@@ -538,13 +514,12 @@ mod tests {
         let mut r = rng(11);
         for _ in 0..200 {
             let t = random_triangle(&mut r, 2.0);
-            let (e1, e2) = (sub(t[1], t[0]), sub(t[2], t[0]));
+            let (e1, e2) = (v(t[1]) - v(t[0]), v(t[2]) - v(t[0]));
             for p in upsample_vec(t, 0.2) {
                 // Solve p − v0 = a·e1 + b·e2 by the 2×2 normal equations.
-                let q = sub(p, t[0]);
-                let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-                let (g11, g12, g22) = (dot(e1, e1), dot(e1, e2), dot(e2, e2));
-                let (b1, b2) = (dot(q, e1), dot(q, e2));
+                let q = v(p) - v(t[0]);
+                let (g11, g12, g22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+                let (b1, b2) = (q.dot(e1), q.dot(e2));
                 let det = g11 * g22 - g12 * g12;
                 let a = (b1 * g22 - b2 * g12) / det;
                 let b = (b2 * g11 - b1 * g12) / det;
@@ -593,11 +568,11 @@ mod tests {
             let ties = tie_count(a, b);
             assert_eq!(2 * got, a * b - ties, "n1={a} n2={b} ties={ties}");
             count += got;
-            let e1 = sub(t[1], t[0]);
-            let e2 = sub(t[2], t[0]);
-            let tri_area = 0.5 * norm(cross(e1, e2));
-            let thr = d * (norm(e1) * norm(e2) / (2.0 * tri_area)).sqrt();
-            let (x, y) = (norm(e1) / thr, norm(e2) / thr);
+            let e1 = v(t[1]) - v(t[0]);
+            let e2 = v(t[2]) - v(t[0]);
+            let tri_area = 0.5 * e1.cross(e2).length();
+            let thr = d * (e1.length() * e2.length() / (2.0 * tri_area)).sqrt();
+            let (x, y) = (e1.length() / thr, e2.length() / thr);
             area += tri_area;
             approx += tri_area / (d * d) * (1.0 - 0.5 / x) * (1.0 - 0.5 / y) - ties as f64 / 2.0;
         }
@@ -636,7 +611,7 @@ mod tests {
     }
 
     fn random_mesh(
-        r: &mut Pcg64Mcg,
+        r: &mut rng::Rng,
         nv: usize,
         nf: usize,
         scale: f64,
@@ -719,14 +694,13 @@ mod tests {
     /// Barycentric coordinates (wa, wb, wc) of `p` in triangle `t` and the
     /// distance of `p` from the triangle's plane.
     fn barycentric(t: &[[f64; 3]; 3], p: [f64; 3]) -> ([f64; 3], f64) {
-        let (e1, e2) = (sub(t[1], t[0]), sub(t[2], t[0]));
-        let n = cross(e1, e2);
-        let q = sub(p, t[0]);
-        let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-        let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-        let plane = dot(q, n) / nn.sqrt();
-        let wb = dot(cross(q, e2), n) / nn;
-        let wc = dot(cross(e1, q), n) / nn;
+        let (e1, e2) = (v(t[1]) - v(t[0]), v(t[2]) - v(t[0]));
+        let n = e1.cross(e2);
+        let q = v(p) - v(t[0]);
+        let nn = n.length_squared();
+        let plane = q.dot(n) / nn.sqrt();
+        let wb = q.cross(e2).dot(n) / nn;
+        let wc = e1.cross(q).dot(n) / nn;
         ([1.0 - wb - wc, wb, wc], plane)
     }
 

@@ -15,7 +15,7 @@
 //!   colour from a DC-only render; a seeded random subset of at most
 //!   ⌊max/N⌋ + 1 points per view.
 
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 use rayon::prelude::*;
 use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 use splatkit_render::sh::sh_to_rgb;
@@ -23,6 +23,7 @@ use splatkit_render::sh::sh_to_rgb;
 use crate::geom::diamond_zbuffer::diamond_zbuffer;
 use crate::geom::levelset::{LevelPoints, back_project, opaque_dc_subset};
 use crate::model::Camera;
+use crate::model::rng;
 
 fn dc_only(g: &Gaussians3) -> Gaussians3 {
     let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
@@ -162,9 +163,7 @@ pub fn depth_points(
             })
             .collect();
         let mut valid: Vec<usize> = (0..pts.len()).filter(|&o| pts[o].is_some()).collect();
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(
-            seed ^ (ci as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
-        );
+        let mut rng = rng::golden_stream(seed, ci as u64);
         let take = per_view.min(valid.len());
         for k in 0..take {
             let j = rng.random_range(k..valid.len());

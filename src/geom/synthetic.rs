@@ -6,9 +6,10 @@
 //! along y, point(u, v) = ((R + r cos v) cos u, r sin v, (R + r cos v) sin u).
 
 use glam::{DMat3, DQuat, DVec3};
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 
 use crate::model::gaussians::{Gaussians, logit};
+use crate::model::rng;
 use crate::model::{Extras, Mesh, TriangleSoup};
 
 /// A torus of major radius `major` and minor radius `minor`.
@@ -69,7 +70,7 @@ impl Torus {
         seed: u64,
     ) -> Gaussians {
         let mut g = Gaussians::default();
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let mut rng = rng::seeded(seed);
         let push = |g: &mut Gaussians, p: DVec3, rot: DMat3, s: [f64; 3], o: f32, rgb: [f32; 3]| {
             let q = DQuat::from_mat3(&rot).normalize();
             g.means.push([p.x as f32, p.y as f32, p.z as f32]);
@@ -157,7 +158,7 @@ mod tests {
 /// with SH degree 3, followed by floaters (transparent α = 0.2, or soft
 /// σ = 3). Returns `(soup, number of torus triangles)`.
 pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
-    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let mut rng = rng::seeded(seed);
     let (nu, nv) = (segments.max(3), (segments / 2).max(3));
     let (big_r, small_r) = (1.0f32, 0.35f32);
     let point = |i: usize, j: usize| {
@@ -177,7 +178,7 @@ pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
                 opacity: f32,
                 sigma: f32,
                 rgb: [f32; 3],
-                rng: &mut rand_pcg::Pcg64Mcg| {
+                rng: &mut rng::Rng| {
         s.triangles.push(t);
         s.opacity_raw.push(logit(opacity));
         s.sigma_raw.push((sigma - 0.01).ln());

@@ -16,15 +16,17 @@
 //!   `class_name` ("SelectionPolygonVolume"), `version_major` (1) and
 //!   `version_minor` (0), which are checked when present.
 //!
-//! Matrices are row-major `[[f64; 4]; 4]` (`m[row][col]`), acting on column
-//! vectors. Every parse error names the file and the line (or JSON key).
+//! Matrices are glam [`DMat4`]s acting on column vectors; the files hold
+//! them row by row (`m.row(r)`), while glam stores columns. Every parse
+//! error names the file and the line (or JSON key).
 
 use std::io::Write;
 use std::path::Path;
 
-use crate::geom::crop::{Axis, CropVolume};
-use crate::geom::registration::Mat4;
+use glam::{DMat4, DVec3};
+
 use crate::io::source::{read_input, werr, write_output};
+use crate::model::crop::{Axis, CropVolume};
 use crate::{Error, Result};
 
 /// One frame of a trajectory `.log` file.
@@ -33,8 +35,8 @@ pub struct LogFrame {
     /// The three integers of the frame's header line (TnT: frame index,
     /// frame index or −1 when unregistered, 0).
     pub meta: [i64; 3],
-    /// Camera-to-world pose, row-major.
-    pub pose: Mat4,
+    /// Camera-to-world pose.
+    pub pose: DMat4,
 }
 
 impl LogFrame {
@@ -47,8 +49,8 @@ impl LogFrame {
     /// The camera centre in world coordinates: the translation column of the
     /// camera-to-world pose (what the toolbox's
     /// `convert_trajectory_to_pointcloud` takes).
-    pub fn centre(&self) -> [f64; 3] {
-        [self.pose[0][3], self.pose[1][3], self.pose[2][3]]
+    pub fn centre(&self) -> DVec3 {
+        self.pose.w_axis.truncate()
     }
 }
 
@@ -117,8 +119,8 @@ pub fn parse_log(name: &str, bytes: &[u8]) -> Result<Vec<LogFrame>> {
                 )
             })?;
         }
-        let mut pose = [[0.0; 4]; 4];
-        for (r, row) in pose.iter_mut().enumerate() {
+        let mut rows = [[0.0; 4]; 4];
+        for (r, row) in rows.iter_mut().enumerate() {
             let Some((lno, line)) = lines.next() else {
                 return Err(Error::format(
                     name,
@@ -141,9 +143,17 @@ pub fn parse_log(name: &str, bytes: &[u8]) -> Result<Vec<LogFrame>> {
             }
             row.copy_from_slice(&v);
         }
-        frames.push(LogFrame { meta, pose });
+        frames.push(LogFrame {
+            meta,
+            pose: from_rows(&rows),
+        });
     }
     Ok(frames)
+}
+
+/// The matrix whose row r is `rows[r]`.
+fn from_rows(rows: &[[f64; 4]; 4]) -> DMat4 {
+    DMat4::from_cols_array_2d(rows).transpose()
 }
 
 /// Reads a trajectory `.log` file (`-` = stdin). See [`parse_log`].
@@ -159,7 +169,7 @@ pub fn format_log(frames: &[LogFrame]) -> String {
     let mut s = String::with_capacity(frames.len() * 240);
     for f in frames {
         s.push_str(&format!("{} {} {}\n", f.meta[0], f.meta[1], f.meta[2]));
-        for row in &f.pose {
+        for row in (0..4).map(|r| f.pose.row(r)) {
             s.push_str(&format!(
                 "{:.12} {:.12} {:.12} {:.12}\n",
                 row[0], row[1], row[2], row[3]
@@ -182,7 +192,7 @@ pub fn write_log(path: &Path, frames: &[LogFrame]) -> Result<()> {
 ///
 /// Errors (naming the line): a row without exactly 4 numbers, a token that is
 /// not a finite number, more or fewer than 4 rows.
-pub fn parse_trans(name: &str, bytes: &[u8]) -> Result<Mat4> {
+pub fn parse_trans(name: &str, bytes: &[u8]) -> Result<DMat4> {
     let mut m = [[0.0; 4]; 4];
     let mut rows = 0usize;
     for (lno, line) in text_lines(name, bytes)? {
@@ -215,11 +225,11 @@ pub fn parse_trans(name: &str, bytes: &[u8]) -> Result<Mat4> {
             format!("expected a 4×4 matrix, found {rows} rows"),
         ));
     }
-    Ok(m)
+    Ok(from_rows(&m))
 }
 
 /// Reads a `_trans.txt` file (`-` = stdin). See [`parse_trans`].
-pub fn read_trans(path: &Path) -> Result<Mat4> {
+pub fn read_trans(path: &Path) -> Result<DMat4> {
     let input = read_input(path)?;
     parse_trans(&input.name, &input)
 }
@@ -399,14 +409,14 @@ mod tests {
         for (k, f) in frames.iter().enumerate() {
             assert_eq!(f.meta, [k as i64, k as i64, 0]);
             assert!(f.is_registered());
-            assert_eq!(f.pose[3], [0.0, 0.0, 0.0, 1.0]);
+            assert_eq!(f.pose.row(3).to_array(), [0.0, 0.0, 0.0, 1.0]);
             // Rotation block orthonormal: the file's matrices deviate by up to
             // 3.7e-6 (measured with numpy), so 1e-5 checks a rotation was read
             // without demanding more than the data holds (the last-row check
             // above pins the row-major layout).
             for i in 0..3 {
                 for j in 0..3 {
-                    let dot: f64 = (0..3).map(|r| f.pose[r][i] * f.pose[r][j]).sum();
+                    let dot: f64 = (0..3).map(|r| f.pose.row(r)[i] * f.pose.row(r)[j]).sum();
                     let want = if i == j { 1.0 } else { 0.0 };
                     assert!((dot - want).abs() < 1e-5, "frame {k}");
                 }
@@ -414,7 +424,7 @@ mod tests {
         }
         // Values of the first frame, as printed in the file.
         assert_eq!(
-            frames[0].pose[0],
+            frames[0].pose.row(0).to_array(),
             [
                 0.753603734645,
                 -0.022161615602,
@@ -423,7 +433,7 @@ mod tests {
             ]
         );
         assert_eq!(
-            frames[0].centre(),
+            frames[0].centre().to_array(),
             [2.377286677636, -0.005093510202, -2.085496122745]
         );
         let original = std::fs::read(&p).unwrap();
@@ -435,16 +445,16 @@ mod tests {
         let frames = vec![
             LogFrame {
                 meta: [0, 0, 0],
-                pose: [
+                pose: from_rows(&[
                     [0.0, -1.0, 0.0, 1.25],
                     [1.0, 0.0, 0.0, -2.5],
                     [0.0, 0.0, 1.0, 0.125],
                     [0.0, 0.0, 0.0, 1.0],
-                ],
+                ]),
             },
             LogFrame {
                 meta: [1, -1, 0],
-                pose: crate::geom::registration::IDENTITY4,
+                pose: DMat4::IDENTITY,
             },
         ];
         let dir = tempfile::tempdir().unwrap();
@@ -497,10 +507,10 @@ mod tests {
     fn trans_matrix_parsing() {
         let text = "# alignment\n1 0 0 0.5\n0 1 0 -1e-3\n\n0 0 2 3 # scaled\n0 0 0 1\n";
         let m = parse_trans("a_trans.txt", text.as_bytes()).unwrap();
-        assert_eq!(m[0], [1.0, 0.0, 0.0, 0.5]);
-        assert_eq!(m[1][3], -1e-3);
-        assert_eq!(m[2], [0.0, 0.0, 2.0, 3.0]);
-        assert_eq!(m[3], [0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(m.row(0).to_array(), [1.0, 0.0, 0.0, 0.5]);
+        assert_eq!(m.row(1)[3], -1e-3);
+        assert_eq!(m.row(2).to_array(), [0.0, 0.0, 2.0, 3.0]);
+        assert_eq!(m.row(3).to_array(), [0.0, 0.0, 0.0, 1.0]);
         // Tabs and trailing spaces, as np.loadtxt accepts.
         let tabs = "1\t0\t0\t0 \n0\t1\t0\t0\n0\t0\t1\t0\n0\t0\t0\t1\n";
         assert!(parse_trans("t.txt", tabs.as_bytes()).is_ok());

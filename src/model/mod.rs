@@ -1,15 +1,19 @@
-//! In-memory scene types. Storage is f32 (as in the files); algorithms
-//! accumulate in f64 where precision matters.
+//! In-memory scene types, and the plain value types shared by the layers
+//! (similarity transform, crop volume, seeded generator). Storage is f32 (as
+//! in the files); algorithms accumulate in f64 where precision matters.
 
 pub mod attributes;
 pub mod camera;
+pub mod crop;
 pub mod gaussians;
 pub mod mask;
 pub mod mesh;
 pub mod obs_mask;
 pub mod orbit;
 pub mod point_cloud;
+pub mod rng;
 pub mod scene;
+pub mod transform;
 pub mod triangle_soup;
 
 /// SH coefficients of item `i`, coefficient-major with the DC term at k = 0,
@@ -28,6 +32,7 @@ pub fn sh_coeffs_of(dc: &[[f32; 3]], rest: &[f32], k: usize, i: usize) -> Vec<[f
 
 pub use attributes::{Column, Element, Extras, Property, ScalarData, ScalarType};
 pub use camera::{Camera, CameraModel};
+pub use crop::{Axis, CropVolume};
 pub use gaussians::Gaussians;
 pub use mask::Mask;
 pub use mesh::Mesh;
@@ -35,4 +40,5 @@ pub use obs_mask::ObsMask;
 pub use orbit::OrbitSpec;
 pub use point_cloud::PointCloud;
 pub use scene::{Scene, SceneKind};
+pub use transform::Similarity;
 pub use triangle_soup::TriangleSoup;

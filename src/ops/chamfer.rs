@@ -470,7 +470,11 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
         &params,
     )?;
     if let Some(plot) = &args.plot {
-        crate::io::write_output(plot, |w| plot_pr_curves(&report, w))?;
+        let img = plot_pr_curves(&report);
+        let name = plot.display().to_string();
+        crate::io::write_output(plot, |w| {
+            crate::io::image::write_png8(w, &name, img.width, img.height, 3, &img.rgb)
+        })?;
     }
     if let Some(dir) = &args.vis_dir {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;

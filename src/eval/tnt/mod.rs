@@ -1,26 +1,29 @@
 //! Tanks-and-Temples F-score (the `python_toolbox/evaluation` pipeline of
 //! `isl-org/TanksAndTemples` at `3c2c212`, run with Open3D 0.10 semantics;
 //! `eval_tsdf.md` §2.3) as one pure function, [`evaluate_tnt`], plus the
-//! per-scene thresholds and a PNG plot of the precision/recall curves.
+//! per-scene thresholds; [`plot`] draws the precision/recall curves.
 //!
 //! Units are those of the ground truth (metres for TnT). Trajectory poses are
-//! camera-to-world 4×4 matrices ([`Mat4`], row-major), as in the `.log`
-//! files read by [`crate::io::tnt`]. The returned transformation maps the
-//! reconstruction into the ground-truth frame.
+//! camera-to-world 4×4 matrices ([`DMat4`]), as in the `.log` files read by
+//! `io::tnt`. The returned transformation maps the reconstruction into the
+//! ground-truth frame; in JSON, transforms are written row by row
+//! (`[[m00, m01, m02, m03], …]`), the layout of the TnT files.
 
-use std::io::Write;
+use glam::DMat4;
+use serde::{Serialize, Serializer};
 
-use serde::Serialize;
-
-use crate::geom::crop::CropVolume;
+use crate::geom::crop::Crop;
 use crate::geom::knn::NnIndex;
 use crate::geom::registration::{
-    IDENTITY4, IcpParams, Mat4, RansacParams, icp_point_to_point, mat4_mul,
-    ransac_on_correspondences, transform_point, transform_points,
+    IcpParams, RansacParams, icp_point_to_point, ransac_on_correspondences, transform_points,
 };
 use crate::geom::voxel::{uniform_down_sample, voxel_down_sample};
-use crate::io::source::werr;
+use crate::model::CropVolume;
 use crate::{Error, Result};
+
+pub mod plot;
+
+pub use plot::{PrPlot, plot_pr_curves};
 
 /// Per-scene thresholds τ in metres, from the toolbox's `config.py`.
 pub const TNT_THRESHOLDS: [(&str, f64); 7] = [
@@ -97,7 +100,13 @@ pub struct TntIcpPass {
     /// Updates applied.
     pub iterations: usize,
     /// Reconstruction → ground truth after this pass.
-    pub transformation: Mat4,
+    #[serde(serialize_with = "serialize_rows")]
+    pub transformation: DMat4,
+}
+
+/// Serialises a transform as its 4 rows.
+fn serialize_rows<S: Serializer>(m: &DMat4, s: S) -> std::result::Result<S::Ok, S::Error> {
+    m.transpose().to_cols_array_2d().serialize(s)
 }
 
 /// Everything [`evaluate_tnt`] measures.
@@ -112,9 +121,11 @@ pub struct TntReport {
     /// 2PR/(P+R); 0 when P = R = 0.
     pub fscore: f64,
     /// Final reconstruction → ground-truth transform (after the 3 ICP passes).
-    pub transformation: Mat4,
+    #[serde(serialize_with = "serialize_rows")]
+    pub transformation: DMat4,
     /// Transform from the trajectory alignment (RANSAC) alone.
-    pub trajectory_transformation: Mat4,
+    #[serde(serialize_with = "serialize_rows")]
+    pub trajectory_transformation: DMat4,
     /// RANSAC fitness (fraction of cameras within the max distance).
     pub trajectory_fitness: f64,
     /// RANSAC inlier RMSE.
@@ -220,9 +231,9 @@ pub fn vertices_and_face_centroids(
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_tnt(
     rec_points: &[[f64; 3]],
-    rec_traj: &[Mat4],
-    gt_traj: &[Mat4],
-    gt_trans: &Mat4,
+    rec_traj: &[DMat4],
+    gt_traj: &[DMat4],
+    gt_trans: &DMat4,
     crop: &CropVolume,
     gt_points: &[[f64; 3]],
     tau: f64,
@@ -257,11 +268,12 @@ pub fn evaluate_tnt(
     }
 
     // 1. Trajectory alignment.
-    let centre = |m: &Mat4| [m[0][3], m[1][3], m[2][3]];
-    let src: Vec<[f64; 3]> = rec_traj.iter().map(centre).collect();
+    // A camera-to-world pose's centre is its translation column.
+    let centre = |m: &DMat4| m.w_axis.truncate();
+    let src: Vec<[f64; 3]> = rec_traj.iter().map(|m| centre(m).to_array()).collect();
     let dst: Vec<[f64; 3]> = gt_traj
         .iter()
-        .map(|m| transform_point(gt_trans, &centre(m)))
+        .map(|m| gt_trans.project_point3(centre(m)).to_array())
         .collect();
     let ransac = ransac_on_correspondences(&src, &dst, &params.ransac)?;
 
@@ -283,8 +295,8 @@ pub fn evaluate_tnt(
         ("voxel τ/2", tau / 2.0, 20.0 * tau, &gt_half),
     ] {
         let s = voxel_down_sample(&crop.crop(&transform_points(&t, rec_points)), voxel)?;
-        let r = icp_point_to_point(&s, g, &IDENTITY4, &icp(dist))?;
-        t = mat4_mul(&r.registration.transformation, &t);
+        let r = icp_point_to_point(&s, g, &DMat4::IDENTITY, &icp(dist))?;
+        t = r.registration.transformation * t;
         passes.push(TntIcpPass {
             downsampling: name.to_string(),
             downsampling_value: voxel,
@@ -311,8 +323,8 @@ pub fn evaluate_tnt(
         let (s, ks) = uniform(crop.crop(&transform_points(&t, rec_points)))?;
         let (g, _) = uniform(gt_crop.clone())?;
         let dist = 2.0 * tau;
-        let r = icp_point_to_point(&s, &g, &IDENTITY4, &icp(dist))?;
-        t = mat4_mul(&r.registration.transformation, &t);
+        let r = icp_point_to_point(&s, &g, &DMat4::IDENTITY, &icp(dist))?;
+        t = r.registration.transformation * t;
         passes.push(TntIcpPass {
             downsampling: "uniform".to_string(),
             downsampling_value: ks as f64,
@@ -403,125 +415,12 @@ fn cumulative_histogram(d: &[f64], edges: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Plot size in pixels.
-const PLOT_W: u32 = 640;
-const PLOT_H: u32 = 480;
-/// Margins of the plot area: left, right, top, bottom.
-const MARGIN: (u32, u32, u32, u32) = (48, 16, 16, 40);
-
-/// Pixel column of distance `x` (x axis spans [0, x_max]).
-fn plot_x(x: f64, x_max: f64) -> f64 {
-    let (l, r, _, _) = MARGIN;
-    l as f64 + x / x_max * (PLOT_W - l - r) as f64
-}
-
-/// Pixel row of fraction `y` (0 at the bottom, 1 at the top).
-fn plot_y(y: f64) -> f64 {
-    let (_, _, t, b) = MARGIN;
-    (PLOT_H - b) as f64 - y * (PLOT_H - t - b) as f64
-}
-
-/// Draws the precision and recall curves of `report` as a 640×480 RGB PNG
-/// into `w`, like the toolbox's `PR_<Scene>_@d_th_0_<τ>.png` without text:
-/// white background, light grey (220, 220, 220) grid lines every 10 % and
-/// every τ, black axes; the **precision** curve (`cum_precision` against
-/// `bin_edges[1..]`) in **red** (255, 0, 0), the **recall** curve in **blue**
-/// (0, 0, 255), both 2 px wide; a **black dashed** vertical line at τ. The
-/// x axis spans [0, plot_stretch·τ] (the last bin edge plus one step), the y
-/// axis [0, 100 %].
-pub fn plot_pr_curves(report: &TntReport, w: &mut dyn Write) -> Result<()> {
-    let (wd, ht) = (PLOT_W as usize, PLOT_H as usize);
-    let mut img = vec![255u8; wd * ht * 3];
-    let tau = report.tau;
-    let step = tau / 100.0;
-    let x_max = match report.bin_edges.last() {
-        Some(&e) if report.bin_edges.len() > 1 => e + step,
-        _ => 5.0 * tau,
-    };
-    let put = |img: &mut [u8], x: i64, y: i64, c: [u8; 3]| {
-        if x >= 0 && y >= 0 && (x as usize) < wd && (y as usize) < ht {
-            let o = (y as usize * wd + x as usize) * 3;
-            img[o..o + 3].copy_from_slice(&c);
-        }
-    };
-    let (l, r, t, b) = MARGIN;
-    let (x0, x1, y0, y1) = (l as i64, (PLOT_W - r) as i64, t as i64, (PLOT_H - b) as i64);
-    let grey = [220, 220, 220];
-    for k in 1..10 {
-        let y = plot_y(k as f64 / 10.0).round() as i64;
-        for x in x0..=x1 {
-            put(&mut img, x, y, grey);
-        }
-    }
-    let mut gx = tau;
-    while gx < x_max {
-        let x = plot_x(gx, x_max).round() as i64;
-        for y in y0..=y1 {
-            put(&mut img, x, y, grey);
-        }
-        gx += tau;
-    }
-    let segment = |img: &mut [u8], a: (f64, f64), bpt: (f64, f64), c: [u8; 3]| {
-        let len = ((bpt.0 - a.0).powi(2) + (bpt.1 - a.1).powi(2)).sqrt();
-        let n = (len * 4.0).ceil().max(1.0) as usize;
-        for i in 0..=n {
-            let f = i as f64 / n as f64;
-            let (x, y) = (a.0 + f * (bpt.0 - a.0), a.1 + f * (bpt.1 - a.1));
-            // A 2×2 stamp centred on the sample.
-            let (xi, yi) = ((x - 0.5).floor() as i64, (y - 0.5).floor() as i64);
-            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                put(img, xi + dx, yi + dy, c);
-            }
-        }
-    };
-    if report.bin_edges.len() >= 2 {
-        for (curve, colour) in [
-            (&report.cum_precision, [255, 0, 0]),
-            (&report.cum_recall, [0, 0, 255]),
-        ] {
-            let pts: Vec<(f64, f64)> = report.bin_edges[1..]
-                .iter()
-                .zip(curve.iter())
-                .map(|(&x, &y)| (plot_x(x, x_max), plot_y(y.clamp(0.0, 1.0))))
-                .collect();
-            for pair in pts.windows(2) {
-                segment(&mut img, pair[0], pair[1], colour);
-            }
-            if let [only] = pts[..] {
-                segment(&mut img, only, only, colour);
-            }
-        }
-    }
-    let xt = plot_x(tau, x_max).round() as i64;
-    for y in y0..=y1 {
-        if (y - y0) % 12 < 7 {
-            put(&mut img, xt, y, [0, 0, 0]);
-            put(&mut img, xt + 1, y, [0, 0, 0]);
-        }
-    }
-    for x in x0..=x1 {
-        put(&mut img, x, y1, [0, 0, 0]);
-    }
-    for y in y0..=y1 {
-        put(&mut img, x0, y, [0, 0, 0]);
-    }
-    let png_err = |e: png::EncodingError| match e {
-        png::EncodingError::IoError(e) => werr(e),
-        other => Error::invalid(format!("PNG encoding failed: {other}")),
-    };
-    let mut enc = png::Encoder::new(w, PLOT_W, PLOT_H);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut writer = enc.write_header().map_err(png_err)?;
-    writer.write_image_data(&img).map_err(png_err)?;
-    writer.finish().map_err(png_err)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::crop::Axis;
-    use crate::geom::registration::Similarity;
+    use crate::model::Similarity;
+    use crate::model::crop::Axis;
+    use glam::{DMat3, DVec3};
 
     const TAU: f64 = 0.01;
 
@@ -593,75 +492,52 @@ mod tests {
         }
     }
 
-    fn rotation(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+    /// Rotation about `axis` by `angle` (Rodrigues' formula, rows as written).
+    fn rotation(axis: [f64; 3], angle: f64) -> DMat3 {
         let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
         let [x, y, z] = axis.map(|c| c / n);
         let (s, c) = angle.sin_cos();
         let t = 1.0 - c;
-        [
+        DMat3::from_cols_array_2d(&[
             [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
             [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
             [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
-        ]
+        ])
+        .transpose()
     }
 
-    fn matmul3(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-        let mut m = [[0.0; 3]; 3];
-        for (i, row) in m.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-            }
-        }
-        m
-    }
-
-    fn transpose3(a: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-        let mut m = [[0.0; 3]; 3];
-        for (i, row) in m.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v = a[j][i];
-            }
-        }
-        m
-    }
-
-    fn pose(r: &[[f64; 3]; 3], c: [f64; 3]) -> Mat4 {
-        let mut m = IDENTITY4;
-        for i in 0..3 {
-            m[i][..3].copy_from_slice(&r[i]);
-            m[i][3] = c[i];
-        }
-        m
+    fn pose(r: &DMat3, c: DVec3) -> DMat4 {
+        DMat4::from_cols(
+            r.x_axis.extend(0.0),
+            r.y_axis.extend(0.0),
+            r.z_axis.extend(0.0),
+            c.extend(1.0),
+        )
     }
 
     fn inverse(s: &Similarity) -> Similarity {
-        let rt = transpose3(&s.rotation);
-        let t: Vec<f64> = (0..3)
-            .map(|i| -(0..3).map(|k| rt[i][k] * s.translation[k]).sum::<f64>() / s.scale)
-            .collect();
+        let rt = s.rotation.transpose();
         Similarity {
             rotation: rt,
             scale: 1.0 / s.scale,
-            translation: [t[0], t[1], t[2]],
+            translation: -(rt * s.translation) / s.scale,
         }
     }
 
     /// Cameras (camera-to-world, GT frame) on a wavy ring around the scene,
     /// looking at its middle.
-    fn gt_frame_cameras() -> Vec<([[f64; 3]; 3], [f64; 3])> {
+    fn gt_frame_cameras() -> Vec<(DMat3, DVec3)> {
         (0..40)
             .map(|i| {
                 let th = i as f64 / 40.0 * std::f64::consts::TAU;
-                let c = [
+                let c = DVec3::new(
                     1.0 + 1.6 * th.cos(),
                     0.4 + 1.6 * th.sin(),
                     0.8 + 0.2 * (3.0 * th).sin(),
-                ];
-                // Yaw towards the centre, then pitch down a little.
-                let r = matmul3(
-                    &rotation([0.0, 0.0, 1.0], th + std::f64::consts::PI),
-                    &rotation([0.0, 1.0, 0.0], 0.3),
                 );
+                // Yaw towards the centre, then pitch down a little.
+                let r = rotation([0.0, 0.0, 1.0], th + std::f64::consts::PI)
+                    * rotation([0.0, 1.0, 0.0], 0.3);
                 (r, c)
             })
             .collect()
@@ -669,9 +545,9 @@ mod tests {
 
     struct Setup {
         gt_points: Vec<[f64; 3]>,
-        gt_traj: Vec<Mat4>,
-        gt_trans: Mat4,
-        rec_traj: Vec<Mat4>,
+        gt_traj: Vec<DMat4>,
+        gt_trans: DMat4,
+        rec_traj: Vec<DMat4>,
         /// GT frame → reconstruction frame.
         s: Similarity,
     }
@@ -686,27 +562,22 @@ mod tests {
         let g = Similarity {
             rotation: rotation([0.0, 0.0, 1.0], 0.3),
             scale: 0.8,
-            translation: [0.5, -0.2, 1.0],
+            translation: DVec3::new(0.5, -0.2, 1.0),
         };
         let g_inv = inverse(&g);
         let s = Similarity {
             rotation: rotation([1.0, 2.0, -1.0], 0.7),
             scale: 2.5,
-            translation: [3.0, -1.0, 0.5],
+            translation: DVec3::new(3.0, -1.0, 0.5),
         };
         let cams = gt_frame_cameras();
         let gt_traj = cams
             .iter()
-            .map(|(r, c)| {
-                pose(
-                    &matmul3(&g_inv.rotation, r),
-                    transform_point(&g_inv.matrix(), c),
-                )
-            })
+            .map(|(r, c)| pose(&(g_inv.rotation * *r), g_inv.matrix().project_point3(*c)))
             .collect();
         let rec_traj = cams
             .iter()
-            .map(|(r, c)| pose(&matmul3(&s.rotation, r), transform_point(&s.matrix(), c)))
+            .map(|(r, c)| pose(&(s.rotation * *r), s.matrix().project_point3(*c)))
             .collect();
         Setup {
             gt_points,
@@ -717,11 +588,11 @@ mod tests {
         }
     }
 
-    fn max_abs_diff(a: &Mat4, b: &Mat4) -> f64 {
-        a.iter()
-            .flatten()
-            .zip(b.iter().flatten())
-            .map(|(x, y)| (x - y).abs())
+    fn max_abs_diff(a: &DMat4, b: &DMat4) -> f64 {
+        (*a - *b)
+            .abs()
+            .to_cols_array()
+            .into_iter()
             .fold(0.0, f64::max)
     }
 
@@ -852,7 +723,7 @@ mod tests {
             (rep.bin_edges.clone(), rep.cum_precision.clone()),
             (vec![0.0], vec![0.0])
         );
-        let run = |tau: f64, rec_traj: &[Mat4]| {
+        let run = |tau: f64, rec_traj: &[DMat4]| {
             evaluate_tnt(
                 &rec,
                 rec_traj,
@@ -900,69 +771,5 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("face 1") && e.contains("vertex 3"), "{e}");
-    }
-
-    /// The plot decodes as a 640×480 RGB PNG with the curves where the
-    /// documented colours and axis mapping put them.
-    #[test]
-    fn plot_draws_curves_at_their_places() {
-        let tau = 0.01;
-        let edges = histogram_edges(tau, 5.0);
-        // Precision: 25 % below 2τ, 75 % above; recall: 50 % throughout.
-        let cum_precision: Vec<f64> = edges[1..]
-            .iter()
-            .map(|&x| if x < 2.0 * tau { 0.25 } else { 0.75 })
-            .collect();
-        let cum_recall = vec![0.5; edges.len() - 1];
-        let report = TntReport {
-            tau,
-            precision: 0.25,
-            recall: 0.5,
-            fscore: 1.0 / 3.0,
-            transformation: IDENTITY4,
-            trajectory_transformation: IDENTITY4,
-            trajectory_fitness: 1.0,
-            trajectory_rmse: 0.0,
-            refinement: Vec::new(),
-            source_points: 1,
-            target_points: 1,
-            source_within_tau: 0,
-            target_within_tau: 0,
-            bin_edges: edges,
-            cum_precision,
-            cum_recall,
-            source_eval_points: Vec::new(),
-            source_distances: Vec::new(),
-            target_eval_points: Vec::new(),
-            target_distances: Vec::new(),
-        };
-        let mut bytes = Vec::new();
-        plot_pr_curves(&report, &mut bytes).unwrap();
-        let dec = png::Decoder::new(std::io::Cursor::new(bytes));
-        let mut reader = dec.read_info().unwrap();
-        let mut buf = vec![0u8; reader.output_buffer_size().unwrap()];
-        let info = reader.next_frame(&mut buf).unwrap();
-        assert_eq!((info.width, info.height), (640, 480));
-        assert_eq!(info.color_type, png::ColorType::Rgb);
-        let px = |x: f64, y: f64| {
-            let (x, y) = (x.round() as usize, y.round() as usize);
-            let o = (y * 640 + x) * 3;
-            [buf[o], buf[o + 1], buf[o + 2]]
-        };
-        let x_max = 5.0 * tau;
-        assert_eq!(px(plot_x(1.3 * tau, x_max), plot_y(0.25)), [255, 0, 0]);
-        assert_eq!(px(plot_x(4.3 * tau, x_max), plot_y(0.75)), [255, 0, 0]);
-        assert_eq!(px(plot_x(4.3 * tau, x_max), plot_y(0.25)), [255, 255, 255]);
-        assert_eq!(px(plot_x(3.3 * tau, x_max), plot_y(0.5)), [0, 0, 255]);
-        // The dashed τ line: black on its dashes, and the corner of the axes.
-        let xt = plot_x(tau, x_max);
-        let dash = (MARGIN.2..PLOT_H - MARGIN.3)
-            .filter(|&y| px(xt, y as f64) == [0, 0, 0])
-            .count();
-        assert!(
-            dash > 150 && dash < 300,
-            "{dash} black pixels on the τ line"
-        );
-        assert_eq!(px(MARGIN.0 as f64, (PLOT_H - MARGIN.3) as f64), [0, 0, 0]);
     }
 }
