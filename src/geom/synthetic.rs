@@ -121,38 +121,6 @@ impl Torus {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Points and grid vertices lie on the surface; normals are outward
-    /// (the distance grows along them); the mesh is closed and outward.
-    #[test]
-    fn torus_is_consistent() {
-        let t = Torus {
-            major: 1.0,
-            minor: 0.35,
-        };
-        for (u, v) in [(0.3, 1.2), (2.0, -0.7), (4.5, 3.0)] {
-            let (p, n) = t.at(u, v);
-            assert!(t.distance(p.to_array()) < 1e-12);
-            assert!((t.distance((p + n * 0.01).to_array()) - 0.01).abs() < 1e-12);
-        }
-        let m = t.mesh(40, 20);
-        assert!(crate::geom::clean::signed_volume(&m) > 0.0);
-        let g = t.gaussians(40, 20, 0.005, 5, 1);
-        assert_eq!(g.len(), 805);
-        g.validate().unwrap();
-        // the thin axis of each surface Gaussian is the torus normal
-        let (_, n) = t.at(
-            0.5 / 40.0 * std::f64::consts::TAU,
-            0.5 / 20.0 * std::f64::consts::TAU,
-        );
-        let z = g.quat(0) * glam::Vec3::Z;
-        assert!((z.as_dvec3().dot(n) - 1.0).abs() < 1e-5);
-    }
-}
-
 /// The demo's triangle-splat scene: a torus (major radius 1, minor 0.35)
 /// tiled with solid, opaque triangles (α = 0.95, σ = 0.5) coloured by angle
 /// with SH degree 3, followed by floaters (transparent α = 0.2, or soft
@@ -214,4 +182,36 @@ pub fn demo_soup(seed: u64, segments: usize) -> (TriangleSoup, usize) {
         push(&mut s, t, o, sig, [0.8, 0.8, 0.8], &mut rng);
     }
     (s, surface)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points and grid vertices lie on the surface; normals are outward
+    /// (the distance grows along them); the mesh is closed and outward.
+    #[test]
+    fn torus_is_consistent() {
+        let t = Torus {
+            major: 1.0,
+            minor: 0.35,
+        };
+        for (u, v) in [(0.3, 1.2), (2.0, -0.7), (4.5, 3.0)] {
+            let (p, n) = t.at(u, v);
+            assert!(t.distance(p.to_array()) < 1e-12);
+            assert!((t.distance((p + n * 0.01).to_array()) - 0.01).abs() < 1e-12);
+        }
+        let m = t.mesh(40, 20);
+        assert!(crate::geom::clean::signed_volume(&m) > 0.0);
+        let g = t.gaussians(40, 20, 0.005, 5, 1);
+        assert_eq!(g.len(), 805);
+        g.validate().unwrap();
+        // the thin axis of each surface Gaussian is the torus normal
+        let (_, n) = t.at(
+            0.5 / 40.0 * std::f64::consts::TAU,
+            0.5 / 20.0 * std::f64::consts::TAU,
+        );
+        let z = g.quat(0) * glam::Vec3::Z;
+        assert!((z.as_dvec3().dot(n) - 1.0).abs() < 1e-5);
+    }
 }

@@ -258,7 +258,6 @@ pub fn save_mesh(path: &Path, mesh: &Mesh, f: FileFormat, opts: &MeshWriteOption
         FileFormat::Off => {
             let o = opts
                 .off
-                .clone()
                 .unwrap_or_else(|| off::OffWriteOptions::for_mesh(mesh));
             off::write_off(w, mesh, &o)
         }

@@ -118,6 +118,26 @@ pub fn to_u8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
+/// Decodes a PNG mask: object where channel 0 of OpenCV's BGR read is
+/// nonzero, i.e. the blue byte of an RGB(A) PNG, the grey byte otherwise
+/// (as the 2DGS DTU culling reads masks).
+pub fn read_mask(path: &Path) -> Result<Mask> {
+    let (info, buf) = decode_png(path, png::Transformations::normalize_to_color8())?;
+    let (w, h) = (info.width as usize, info.height as usize);
+    let channels = info.color_type.samples();
+    // BGR channel 0 is blue: byte 2 of RGB/RGBA, the grey byte otherwise.
+    let pick = match info.color_type {
+        png::ColorType::Rgb | png::ColorType::Rgba => 2,
+        _ => 0,
+    };
+    let bits = (0..w * h).map(|i| buf[i * channels + pick] != 0).collect();
+    Ok(Mask {
+        width: w,
+        height: h,
+        bits,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -148,24 +168,4 @@ mod tests {
             assert_eq!((px[0] * 65535.0).round() as u16, *v);
         }
     }
-}
-
-/// Decodes a PNG mask: object where channel 0 of OpenCV's BGR read is
-/// nonzero, i.e. the blue byte of an RGB(A) PNG, the grey byte otherwise
-/// (as the 2DGS DTU culling reads masks).
-pub fn read_mask(path: &Path) -> Result<Mask> {
-    let (info, buf) = decode_png(path, png::Transformations::normalize_to_color8())?;
-    let (w, h) = (info.width as usize, info.height as usize);
-    let channels = info.color_type.samples();
-    // BGR channel 0 is blue: byte 2 of RGB/RGBA, the grey byte otherwise.
-    let pick = match info.color_type {
-        png::ColorType::Rgb | png::ColorType::Rgba => 2,
-        _ => 0,
-    };
-    let bits = (0..w * h).map(|i| buf[i * channels + pick] != 0).collect();
-    Ok(Mask {
-        width: w,
-        height: h,
-        bits,
-    })
 }
