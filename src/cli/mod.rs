@@ -23,22 +23,33 @@ pub struct Common {
     /// No progress bars or summaries on stderr (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
-    /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(short = 'j', long, value_name = "N")]
+    /// Worker threads, 1 to 512 (default: all cores). Results do not depend on it.
+    #[arg(short = 'j', long, value_name = "N",
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=MAX_THREADS as u64))]
     pub threads: Option<usize>,
 }
+
+/// The most worker threads `--threads` accepts: far above any core count
+/// this CPU tool is run on, and low enough that thread stacks (2 MB each by
+/// default) cannot exhaust memory on their own.
+pub const MAX_THREADS: usize = 512;
 
 impl Common {
     /// Applies `--threads` to the global rayon pool.
     pub fn init(&self) -> anyhow::Result<()> {
         if let Some(n) = self.threads {
-            if n == 0 {
-                anyhow::bail!("--threads must be at least 1");
+            if n == 0 || n > MAX_THREADS {
+                anyhow::bail!("--threads must be between 1 and {MAX_THREADS} (got {n})");
             }
-            // Only the first pool configuration of a process takes effect.
-            let _ = rayon::ThreadPoolBuilder::new()
+            if let Err(e) = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
-                .build_global();
+                .build_global()
+            {
+                // A pool set up earlier in this process with the same size is fine.
+                if rayon::current_num_threads() != n {
+                    anyhow::bail!("--threads {n}: cannot start the worker threads: {e}");
+                }
+            }
         }
         Ok(())
     }
@@ -97,8 +108,42 @@ impl Common {
     }
 }
 
-/// Turns a command's result into the process exit code: 0 on success, 1
-/// with `error: …` (and its causes) on stderr.
+/// A usage error found after argument parsing (a combination of flags or
+/// inputs that cannot work): the command exits with 2, as clap does for the
+/// errors it finds itself.
+#[derive(Debug)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
+
+/// `Err(UsageError(msg))` as an `anyhow::Error`.
+pub fn usage(msg: impl Into<String>) -> anyhow::Error {
+    UsageError(msg.into()).into()
+}
+
+/// A flag value that must be a finite number greater than zero (clap value
+/// parser: a bad value is a usage error, exit 2).
+pub fn positive_f64(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{s} must be a finite number greater than zero"))
+    }
+}
+
+/// Turns a command's result into the process exit code: 0 on success, 2
+/// for a [`UsageError`], 1 otherwise, with `error: …` (and its causes) on
+/// stderr.
 pub fn exit_with(result: anyhow::Result<()>) -> ! {
     match result {
         Ok(()) => std::process::exit(0),
@@ -106,6 +151,10 @@ pub fn exit_with(result: anyhow::Result<()>) -> ! {
             // A closed stdout (`| head`) is not worth a message.
             if is_broken_pipe(&e) {
                 std::process::exit(0);
+            }
+            if e.downcast_ref::<UsageError>().is_some() {
+                eprintln!("error: {e}");
+                std::process::exit(2);
             }
             eprintln!("error: {e}");
             for cause in e.chain().skip(1) {

@@ -5,15 +5,38 @@ use anyhow::{Context, bail};
 use clap::Args;
 use glam::DVec3;
 
+use crate::io::cameras::MAX_PIXELS;
 use crate::model::OrbitSpec;
+
+/// The most views one orbit ring may have.
+pub const MAX_ORBIT_VIEWS: usize = 1000;
+/// The most views an orbit may have over all its rings.
+pub const MAX_ORBIT_TOTAL: usize = 10_000;
+
+/// Parses `WIDTHxHEIGHT` (both > 0, at most [`MAX_PIXELS`] pixels).
+pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
+    let (w, h) = s
+        .split_once('x')
+        .and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)))
+        .with_context(|| format!("--size {s:?}: expected WIDTHxHEIGHT, two whole numbers"))?;
+    if w == 0 || h == 0 {
+        bail!("--size {s:?}: width and height must be greater than zero");
+    }
+    if u64::from(w) * u64::from(h) > MAX_PIXELS {
+        bail!(
+            "--size {s:?}: {w}x{h} exceeds the limit of {MAX_PIXELS} pixels (2^28, e.g. 16384x16384)"
+        );
+    }
+    Ok((w, h))
+}
 
 /// Orbit cameras made up when a scene comes without a camera file: `N`
 /// views per ring evenly spaced in azimuth around the centre of the scene's
 /// central 96% box, one ring per elevation, looking at that centre.
 #[derive(Args, Debug, Clone)]
 pub struct OrbitArgs {
-    /// Orbit views per ring when no camera file is given (render: 8).
-    #[arg(long)]
+    /// Orbit views per ring when no camera file is given (render: 8), 1 to 1000.
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=MAX_ORBIT_VIEWS as u64))]
     pub orbit: Option<usize>,
     /// Orbit image size WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600")]
@@ -47,17 +70,26 @@ pub struct OrbitArgs {
 impl OrbitArgs {
     /// The orbit these flags describe, with `n` views per ring, checked.
     pub fn spec(&self, n: usize) -> anyhow::Result<OrbitSpec> {
-        let (w, h) = self
-            .size
-            .split_once('x')
-            .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
-            .filter(|&(w, h)| w > 0 && h > 0 && (w as u64) * (h as u64) <= 1 << 28)
-            .with_context(|| format!("--size {:?}: expected WIDTHxHEIGHT", self.size))?;
-        if n == 0 {
-            bail!("--orbit must be at least 1 (or give --cameras)");
+        let (w, h) = parse_size(&self.size)?;
+        if n == 0 || n > MAX_ORBIT_VIEWS {
+            bail!("--orbit takes 1 to {MAX_ORBIT_VIEWS} views per ring (got {n})");
         }
-        if self.up.len() != 3 {
-            bail!("--up takes three numbers x,y,z");
+        if n.saturating_mul(self.elevation.len()) > MAX_ORBIT_TOTAL {
+            bail!(
+                "--orbit {n} with {} elevations makes more than {MAX_ORBIT_TOTAL} views",
+                self.elevation.len()
+            );
+        }
+        if !(self.fov.is_finite() && self.fov > 0.0 && self.fov < 180.0) {
+            bail!("--fov must lie in (0, 180) degrees (got {})", self.fov);
+        }
+        if let Some(r) = self.radius
+            && !(r.is_finite() && r > 0.0)
+        {
+            bail!("--radius must be a positive distance (got {r})");
+        }
+        if self.up.len() != 3 || self.up.iter().any(|v| !v.is_finite()) {
+            bail!("--up takes three finite numbers x,y,z");
         }
         if self.elevation.is_empty() || self.elevation.iter().any(|e| e.is_nan() || e.abs() >= 90.0)
         {

@@ -72,6 +72,16 @@ impl FileFormat {
         {
             return Some(FileFormat::Off);
         }
+        // OBJ: its first statement is one of the OBJ keywords (so a mesh
+        // piped through stdin, with no extension to go by, is still found).
+        if let Some(l) = first
+            && matches!(
+                l.split_whitespace().next(),
+                Some("v" | "vn" | "vt" | "f" | "o" | "g" | "s" | "mtllib" | "usemtl")
+            )
+        {
+            return Some(FileFormat::Obj);
+        }
         None
     }
 

@@ -15,7 +15,7 @@ use glam::DMat4;
 use rayon::prelude::*;
 use serde_json::json;
 
-use crate::cli::{Common, shown};
+use crate::cli::{Common, positive_f64, shown, usage};
 use crate::eval::chamfer::{
     Cloud, GenericParams, SampleMode, chamfer_generic, drop_non_finite, f64_points, mesh_cloud,
 };
@@ -23,6 +23,7 @@ use crate::eval::cull::{CullView, DILATION_RADIUS, dilate_disk};
 use crate::eval::dtu::{DtuParams, DtuPrediction, DtuReport, evaluate_dtu, vis_color};
 use crate::io::any::{load_kinds, load_mesh, load_points};
 use crate::io::cameras::npz::{NpzOptions, read_neus_cameras};
+use crate::io::cameras::validate_cameras;
 use crate::io::image::read_mask;
 use crate::io::ply::{Format, points::write_points};
 use crate::model::{PointCloud, Scene, SceneKind};
@@ -74,8 +75,8 @@ pub struct ChamferArgs {
     /// Samples per mesh with --sample area.
     #[arg(long, default_value_t = 1_000_000)]
     pub count: usize,
-    /// Spacing of --sample dtu (same unit as the data).
-    #[arg(long, default_value_t = 0.2)]
+    /// Spacing of --sample dtu (same unit as the data), > 0.
+    #[arg(long, default_value_t = 0.2, value_parser = positive_f64)]
     pub spacing: f64,
     /// Use mesh vertices instead of samples (same as --sample vertices).
     #[arg(long)]
@@ -83,8 +84,8 @@ pub struct ChamferArgs {
     /// F-score thresholds, comma-separated (generic; TnT overrides the scene's τ).
     #[arg(long, value_delimiter = ',')]
     pub tau: Vec<f64>,
-    /// Discard distances ≥ this before statistics (generic).
-    #[arg(long)]
+    /// Discard distances ≥ this before statistics (generic), > 0.
+    #[arg(long, value_parser = positive_f64)]
     pub max_dist: Option<f64>,
     /// Seed of every random step (sampling, DTU shuffle, TnT RANSAC).
     #[arg(long, default_value_t = 0)]
@@ -143,6 +144,11 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
     let [pred_path, gt_path] = args.inputs.as_slice() else {
         bail!("generic mode needs two inputs: PRED GT");
     };
+    if pred_path.as_os_str() == "-" && gt_path.as_os_str() == "-" {
+        return Err(usage(
+            "only one of PRED and GT can be `-` (stdin is read once)",
+        ));
+    }
     if args.tau.iter().any(|t| t.is_nan() || *t <= 0.0) {
         bail!("--tau values must be positive");
     }
@@ -275,6 +281,7 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
 /// Returns the views and the `scale_mat` that maps the normalised frame to mm.
 pub fn load_cull_views(cameras: &Path, mask_dir: &Path) -> Result<(Vec<CullView>, DMat4)> {
     let cams = read_neus_cameras(cameras, &NpzOptions::default())?;
+    validate_cameras(&cameras.display().to_string(), &cams.cameras)?;
     let mut masks: Vec<PathBuf> = std::fs::read_dir(mask_dir)
         .map_err(|e| Error::io(mask_dir.display(), e))?
         .filter_map(|e| e.ok().map(|e| e.path()))

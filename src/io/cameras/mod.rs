@@ -153,16 +153,71 @@ pub fn read_cameras(path: &Path) -> Result<Vec<Camera>> {
              .txt, in the folder, sparse/0 or sparse), cameras.json, transforms*.json or a .npz",
         ));
     };
-    match format {
+    let cams = match format {
         CameraFormat::ColmapBinary | CameraFormat::ColmapText => {
-            colmap::ColmapModel::read_without_points(&p)?.to_cameras()
+            colmap::ColmapModel::read_without_points(&p)?.to_cameras()?
         }
-        CameraFormat::GsJson => gs_json::read_gs_json(&p),
-        CameraFormat::NerfTransforms => nerf_json::read_transforms_json(&p),
-        CameraFormat::NeusNpz => {
-            Ok(npz::read_neus_cameras(&p, &npz::NpzOptions::default())?.cameras)
+        CameraFormat::GsJson => gs_json::read_gs_json(&p)?,
+        CameraFormat::NerfTransforms => nerf_json::read_transforms_json(&p)?,
+        CameraFormat::NeusNpz => npz::read_neus_cameras(&p, &npz::NpzOptions::default())?.cameras,
+    };
+    validate_cameras(&p.display().to_string(), &cams)?;
+    Ok(cams)
+}
+
+/// The most pixels one image may have: 2^28 (16384 × 16384), the limit
+/// `--size` enforces too. Images are allocated as several f32 planes, so this
+/// bounds one view's memory to a few GB before anything is allocated.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// The checks every camera source passes before any command uses it (the
+/// readers check their own syntax; these are the rules that make a camera
+/// usable): at least one camera; width and height > 0 with width·height ≤
+/// [`MAX_PIXELS`]; fx, fy finite and non-zero; cx, cy finite; a finite pose;
+/// names unique (commands name their outputs after them). `source` names the
+/// file in the error, with the camera's index and name.
+pub fn validate_cameras(source: &str, cams: &[Camera]) -> Result<()> {
+    if cams.is_empty() {
+        return Err(Error::format(source, "holds no cameras"));
+    }
+    let mut names = std::collections::HashMap::with_capacity(cams.len());
+    for (i, c) in cams.iter().enumerate() {
+        let bad =
+            |what: String| Error::format(source, format!("camera {i} ({:?}): {what}", c.name));
+        if c.width == 0 || c.height == 0 {
+            return Err(bad(format!(
+                "image size {}x{} has a zero side",
+                c.width, c.height
+            )));
+        }
+        if u64::from(c.width) * u64::from(c.height) > MAX_PIXELS {
+            return Err(bad(format!(
+                "image size {}x{} exceeds the limit of {MAX_PIXELS} pixels (2^28, e.g. 16384x16384)",
+                c.width, c.height
+            )));
+        }
+        if !(c.fx.is_finite() && c.fy.is_finite() && c.fx != 0.0 && c.fy != 0.0) {
+            return Err(bad(format!(
+                "focal length fx = {}, fy = {} (must be finite and non-zero)",
+                c.fx, c.fy
+            )));
+        }
+        if !(c.cx.is_finite() && c.cy.is_finite()) {
+            return Err(bad(format!(
+                "principal point ({}, {}) is not finite",
+                c.cx, c.cy
+            )));
+        }
+        if !(c.rotation.is_finite() && c.translation.is_finite()) {
+            return Err(bad("the pose holds a NaN or infinite value".into()));
+        }
+        if let Some(j) = names.insert(c.name.as_str(), i) {
+            return Err(bad(format!(
+                "has the same name as camera {j}: outputs named after cameras would overwrite each other"
+            )));
         }
     }
+    Ok(())
 }
 
 /// Width and height in pixels of a PNG or JPEG image, read from its header

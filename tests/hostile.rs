@@ -1,0 +1,323 @@
+//! Hostile input never takes the machine down (issue 11): each case is a
+//! few hundred bytes of input or a flag a hostile user could pass, run
+//! under a 2 GB address-space limit (`ulimit -v`), and must end with exit
+//! 1 (bad data) or 2 (bad usage), a message naming the file or flag and the
+//! problem, no panic text, and no output created or replaced.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use glam::{DMat3, DVec3};
+use splatkit::io::any::save;
+use splatkit::io::cameras::write_gs_json;
+use splatkit::io::detect::FileFormat;
+use splatkit::model::{Camera, Mesh, PointCloud, Scene};
+
+/// Address-space limit of every run, KiB (2 GB): a command that tried to
+/// allocate what a hostile header asks for would abort instead of failing
+/// cleanly, and the test would see it.
+const LIMIT_KIB: u64 = 2 * 1024 * 1024;
+
+/// Runs binary `name` with `args` under the address-space limit.
+fn run(name: &str, args: &[&str], stdin: Option<&Path>) -> Output {
+    let exe = assert_cmd::cargo::cargo_bin(name);
+    let mut script = format!("ulimit -v {LIMIT_KIB} && exec \"$0\" \"$@\"");
+    if let Some(p) = stdin {
+        script = format!(
+            "ulimit -v {LIMIT_KIB} && exec \"$0\" \"$@\" < '{}'",
+            p.display()
+        );
+    }
+    std::process::Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .arg(exe)
+        .args(args)
+        .output()
+        .expect("sh runs")
+}
+
+/// Asserts the run failed with `code`, mentioned every `needles` in its
+/// message, printed no panic or allocation-failure text, and wrote nothing
+/// to stdout.
+fn fails(out: &Output, code: i32, needles: &[&str]) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(code), "exit code; stderr: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{err:?} lacks {n:?}");
+    }
+    for bad in [
+        "panicked",
+        "memory allocation",
+        "RUST_BACKTRACE",
+        "capacity overflow",
+    ] {
+        assert!(!err.contains(bad), "{err:?} shows {bad:?}");
+    }
+    assert!(out.stdout.is_empty(), "wrote to stdout");
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn camera(name: &str, w: u32, h: u32) -> Camera {
+    Camera::pinhole(
+        name,
+        w,
+        h,
+        100.0,
+        100.0,
+        w as f64 / 2.0,
+        h as f64 / 2.0,
+        DMat3::IDENTITY,
+        DVec3::new(0.0, 0.0, 4.0),
+    )
+}
+
+/// A small mesh file in `dir`.
+fn mesh_file(dir: &Path) -> PathBuf {
+    let p = dir.join("mesh.ply");
+    let m = Mesh::new(
+        vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2]],
+    );
+    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
+    p
+}
+
+/// A camera file holding `cams`.
+fn cameras_file(dir: &Path, name: &str, cams: &[Camera]) -> PathBuf {
+    let p = dir.join(name);
+    write_gs_json(&p, cams).unwrap();
+    p
+}
+
+/// Image sizes from a camera file are checked before anything is allocated:
+/// 100000×100000 names the pixel limit; 4294967295 on a side too.
+#[test]
+fn huge_image_sizes_from_camera_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let out_dir = dir.path().join("renders");
+    for (w, h) in [(100_000, 100_000), (u32::MAX, u32::MAX), (u32::MAX, 1)] {
+        let cams = cameras_file(dir.path(), "cameras.json", &[camera("a", w, h)]);
+        let out = run(
+            "render",
+            &[s(&mesh), "--cameras", s(&cams), "-o", s(&out_dir)],
+            None,
+        );
+        fails(
+            &out,
+            1,
+            &["cameras.json", "exceeds the limit of 268435456 pixels"],
+        );
+        assert!(!out_dir.exists(), "no output folder for a refused run");
+    }
+}
+
+/// Zero-size images, zero or NaN focal lengths, a non-finite pose, no
+/// cameras at all, and two cameras with one name are refused whatever the
+/// camera format (the JSON readers refuse some of these themselves; a
+/// COLMAP model goes through the shared checks), naming the source and the
+/// camera.
+#[test]
+fn unusable_cameras_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let out_dir = dir.path().join("renders");
+    let mut nan_focal = camera("nanf", 64, 48);
+    nan_focal.fx = f64::NAN;
+    let mut zero_focal = camera("zerof", 64, 48);
+    zero_focal.fy = 0.0;
+    let mut nan_pose = camera("nanpose", 64, 48);
+    nan_pose.translation.x = f64::NAN;
+    let cases: Vec<(Vec<Camera>, &str)> = vec![
+        (vec![camera("w0", 0, 48)], "zero side"),
+        (vec![nan_focal], "focal length"),
+        (vec![zero_focal], "focal length"),
+        (vec![nan_pose], "NaN or infinite"),
+        (
+            vec![camera("same", 64, 48), camera("same", 64, 48)],
+            "same name as camera 0",
+        ),
+    ];
+    for (k, (cams, want)) in cases.into_iter().enumerate() {
+        // COLMAP text model, written directly (our writer would refuse some).
+        let model = dir.path().join(format!("colmap{k}"));
+        std::fs::create_dir_all(&model).unwrap();
+        let mut cameras_txt = String::new();
+        let mut images_txt = String::new();
+        for (i, c) in cams.iter().enumerate() {
+            cameras_txt += &format!(
+                "{} PINHOLE {} {} {} {} {} {}\n",
+                i + 1,
+                c.width,
+                c.height,
+                c.fx,
+                c.fy,
+                c.cx,
+                c.cy
+            );
+            let t = c.translation;
+            images_txt += &format!(
+                "{} 1 0 0 0 {} {} {} {} {}\n\n",
+                i + 1,
+                t.x,
+                t.y,
+                t.z,
+                i + 1,
+                c.name
+            );
+        }
+        std::fs::write(model.join("cameras.txt"), cameras_txt).unwrap();
+        std::fs::write(model.join("images.txt"), images_txt).unwrap();
+        std::fs::write(model.join("points3D.txt"), "").unwrap();
+        let out = run(
+            "render",
+            &[s(&mesh), "--cameras", s(&model), "-o", s(&out_dir)],
+            None,
+        );
+        fails(&out, 1, &[&format!("colmap{k}"), want]);
+        assert!(!out_dir.exists());
+        // The same cameras as cameras.json: refused too, by the reader or the checks.
+        if cams
+            .iter()
+            .all(|c| c.width > 0 && c.fx.is_finite() && c.fy != 0.0)
+        {
+            let f = cameras_file(dir.path(), "cams.json", &cams);
+            let out = run(
+                "render",
+                &[s(&mesh), "--cameras", s(&f), "-o", s(&out_dir)],
+                None,
+            );
+            fails(&out, 1, &["cams.json"]);
+            assert!(!out_dir.exists());
+        }
+    }
+    let empty = dir.path().join("empty.json");
+    std::fs::write(&empty, "[]").unwrap();
+    let out = run(
+        "render",
+        &[s(&mesh), "--cameras", s(&empty), "-o", s(&out_dir)],
+        None,
+    );
+    fails(&out, 1, &["empty.json", "no cameras"]);
+    assert!(!out_dir.exists());
+}
+
+/// `--threads` beyond the bound is a usage error, not a rayon panic or a
+/// minute of thread start-up.
+#[test]
+fn thread_counts_are_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let out_path = dir.path().join("out.ply");
+    for n in ["0", "2000", "100000"] {
+        let out = run(
+            "clean",
+            &[s(&mesh), "-o", s(&out_path), "--threads", n],
+            None,
+        );
+        fails(&out, 2, &["--threads"]);
+        assert!(!out_path.exists());
+    }
+}
+
+/// Orbit counts and sizes: `--orbit 4294967295` and `--orbit 100000` are
+/// refused at parse time; `--size 0x0` says zero and `--size 100000x100000`
+/// the pixel limit; nothing is written.
+#[test]
+fn orbit_counts_and_sizes_are_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let out_dir = dir.path().join("orbit");
+    for n in ["4294967295", "100000", "0"] {
+        let out = run(
+            "render",
+            &[s(&mesh), "--orbit", n, "--size", "8x8", "-o", s(&out_dir)],
+            None,
+        );
+        fails(&out, 2, &["--orbit"]);
+    }
+    let out = run(
+        "render",
+        &[s(&mesh), "--orbit", "2", "--size", "0x0", "-o", s(&out_dir)],
+        None,
+    );
+    fails(&out, 1, &["--size", "greater than zero"]);
+    let out = run(
+        "render",
+        &[
+            s(&mesh),
+            "--orbit",
+            "2",
+            "--size",
+            "100000x100000",
+            "-o",
+            s(&out_dir),
+        ],
+        None,
+    );
+    fails(
+        &out,
+        1,
+        &["--size", "exceeds the limit of 268435456 pixels"],
+    );
+    assert!(!out_dir.exists());
+}
+
+/// Stdin is read once whatever its format (an OBJ piped into `chamfer -`
+/// works), and `chamfer - -` is refused as a usage error.
+#[test]
+fn stdin_is_read_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("mesh.obj");
+    let m = Mesh::new(
+        vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2]],
+    );
+    save(&obj, &Scene::Mesh(m), FileFormat::Obj).unwrap();
+    let pts = dir.path().join("pts.ply");
+    let pc = PointCloud {
+        positions: vec![[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.5, 0.0]],
+        ..Default::default()
+    };
+    save(&pts, &Scene::PointCloud(pc), FileFormat::Ply).unwrap();
+    let out = run(
+        "chamfer",
+        &["-", s(&pts), "--count", "1000", "--json"],
+        Some(&obj),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["pred"], "<stdin>");
+    assert_eq!(v["pred_points"], 1000);
+    let out = run("chamfer", &["-", "-"], Some(&obj));
+    fails(&out, 2, &["stdin is read once"]);
+}
+
+/// Numeric flags that would give a meaningless score or a silent fallback
+/// are usage errors: `--max-dist 0`, `--spacing 0 / nan / inf`.
+#[test]
+fn chamfer_numeric_flags_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    for (flag, v) in [
+        ("--max-dist", "0"),
+        ("--max-dist", "-1"),
+        ("--max-dist", "nan"),
+        ("--spacing", "0"),
+        ("--spacing", "nan"),
+        ("--spacing", "inf"),
+    ] {
+        let arg = format!("{flag}={v}");
+        let out = run("chamfer", &[s(&mesh), s(&mesh), &arg], None);
+        fails(&out, 2, &[flag]);
+    }
+}
