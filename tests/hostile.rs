@@ -321,3 +321,66 @@ fn chamfer_numeric_flags_are_checked() {
         fails(&out, 2, &[flag]);
     }
 }
+
+/// A run that fails on a bad output path fails before any work: the data
+/// output already on disk is left as it was (`clean`, `decimate`,
+/// `export-off`, `poisson`, `prune-triangles`, `splat2points` check `-o` and
+/// `--json=FILE` first).
+#[test]
+fn a_bad_report_path_leaves_the_output_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let out_path = dir.path().join("out.ply");
+    std::fs::write(&out_path, b"previous contents").unwrap();
+    let missing = dir.path().join("missing_dir/r.json");
+    let json_arg = format!("--json={}", missing.display());
+    for (bin, extra) in [
+        ("clean", vec![]),
+        ("decimate", vec!["--faces", "1"]),
+        ("export-off", vec![]),
+        ("poisson", vec![]),
+    ] {
+        let mut args = vec![s(&mesh), "-o", s(&out_path), json_arg.as_str()];
+        args.extend(extra);
+        let out = run(bin, &args, None);
+        fails(&out, 1, &["--json", "missing_dir", "does not exist"]);
+        assert_eq!(
+            std::fs::read(&out_path).unwrap(),
+            b"previous contents",
+            "{bin} replaced its output before failing"
+        );
+    }
+    // An output inside a folder that does not exist: refused before reading.
+    let nowhere = dir.path().join("nowhere/out.ply");
+    let out = run("clean", &[s(&mesh), "-o", s(&nowhere)], None);
+    fails(&out, 1, &["-o", "nowhere", "does not exist"]);
+}
+
+/// `render --compare DIR` with a missing ground truth fails before any
+/// image is rendered or written: the output folder keeps what it held.
+#[test]
+fn render_compare_checks_ground_truth_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let cams = cameras_file(dir.path(), "cameras.json", &[camera("a", 32, 24)]);
+    let out_dir = dir.path().join("renders");
+    std::fs::create_dir_all(&out_dir).unwrap();
+    std::fs::write(out_dir.join("a.png"), b"previous").unwrap();
+    let gt = dir.path().join("gt");
+    std::fs::create_dir_all(&gt).unwrap();
+    let out = run(
+        "render",
+        &[
+            s(&mesh),
+            "--cameras",
+            s(&cams),
+            "-o",
+            s(&out_dir),
+            "--compare",
+            s(&gt),
+        ],
+        None,
+    );
+    fails(&out, 1, &["no ground-truth PNG", "gt"]);
+    assert_eq!(std::fs::read(out_dir.join("a.png")).unwrap(), b"previous");
+}

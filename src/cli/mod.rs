@@ -35,8 +35,13 @@ pub struct Common {
 pub const MAX_THREADS: usize = 512;
 
 impl Common {
-    /// Applies `--threads` to the global rayon pool.
+    /// Applies `--threads` to the global rayon pool and checks that a
+    /// `--json=FILE` can be written (before any work, so a bad path never
+    /// leaves the command's other outputs replaced).
     pub fn init(&self) -> anyhow::Result<()> {
+        if let Some(p) = &self.json {
+            check_output_file(p, "--json")?;
+        }
         if let Some(n) = self.threads {
             if n == 0 || n > MAX_THREADS {
                 anyhow::bail!("--threads must be between 1 and {MAX_THREADS} (got {n})");
@@ -170,6 +175,33 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         c.downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
+}
+
+/// Checks, before any work, that an output file can be created: `-` is
+/// stdout; otherwise its folder must exist and the path must not be a
+/// folder. `what` names the flag in the message.
+pub fn check_output_file(path: &Path, what: &str) -> anyhow::Result<()> {
+    if path.as_os_str() == "-" {
+        return Ok(());
+    }
+    if path.is_dir() {
+        anyhow::bail!(
+            "{what} {}: is a folder, expected a file path",
+            path.display()
+        );
+    }
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        anyhow::bail!(
+            "{what} {}: the folder {} does not exist",
+            path.display(),
+            dir.display()
+        );
+    }
+    Ok(())
 }
 
 /// Refuses to write binary data to a terminal.

@@ -41,6 +41,7 @@ pub struct DecimateArgs {
 /// `decimate` entry point.
 pub fn run(args: DecimateArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    crate::cli::check_output_file(&args.output, "-o")?;
     args.common.check_stdout_free(&args.output)?;
     let format = output_format(&args.output, None, FileFormat::Ply)?;
     if matches!(format, FileFormat::Ply | FileFormat::Glb) {

@@ -65,6 +65,7 @@ fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
 /// Runs the command.
 pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    crate::cli::check_output_file(&args.output, "-o")?;
     args.common.check_stdout_free(&args.output)?;
     let explicit = args.format.as_deref().map(|f| match f {
         "glb" => FileFormat::Glb,

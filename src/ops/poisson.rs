@@ -111,6 +111,7 @@ pub struct PoissonArgs {
 /// `poisson` entry point.
 pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    crate::cli::check_output_file(&args.output, "-o")?;
     args.common.check_stdout_free(&args.output)?;
     crate::cli::check_binary_stdout(&args.output)?;
     if args.foreground_only && args.split_by_cameras.is_none() && args.bbox.is_none() {

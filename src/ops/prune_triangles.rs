@@ -77,6 +77,7 @@ impl PruneTrianglesArgs {
 /// Runs the command.
 pub fn run(args: PruneTrianglesArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    crate::cli::check_output_file(&args.output, "-o")?;
     args.common.check_stdout_free(&args.output)?;
     let params = args.params()?;
     let format = output_format(

@@ -327,6 +327,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         c.require_pinhole()
             .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
     }
+    // Every ground-truth image is found before anything is rendered or
+    // written, so a missing one cannot leave the output folder half-replaced.
+    let gt_paths: Vec<Option<PathBuf>> = cams
+        .iter()
+        .enumerate()
+        .map(|(i, cam)| {
+            args.compare
+                .as_ref()
+                .map(|dir| ground_truth(dir, cam, &stem(cam, i)))
+                .transpose()
+        })
+        .collect::<anyhow::Result<_>>()?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
     if args.cameras.is_none() {
@@ -352,9 +364,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.depth_scale,
         )?;
         let mut v = json!({ "camera": cam.name, "files": files });
-        if let Some(dir) = &args.compare {
-            let gt_path = ground_truth(dir, cam, &st)?;
-            let gt = read_png_rgb(&gt_path)?;
+        if let Some(gt_path) = &gt_paths[i] {
+            let gt = read_png_rgb(gt_path)?;
             if (gt.width, gt.height) != (out.width, out.height) {
                 bail!(
                     "{}: {}x{} pixels, but camera {:?} renders {}x{}",

@@ -201,6 +201,7 @@ pub fn seen_by_any(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64)
 /// `splat2points` entry point.
 pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    crate::cli::check_output_file(&args.output, "-o")?;
     args.common.check_stdout_free(&args.output)?;
     check_binary_stdout(&args.output)?;
     let t0 = std::time::Instant::now();
