@@ -384,3 +384,33 @@ fn render_compare_checks_ground_truth_first() {
     fails(&out, 1, &["no ground-truth PNG", "gt"]);
     assert_eq!(std::fs::read(out_dir.join("a.png")).unwrap(), b"previous");
 }
+
+/// Numeric flags are checked when parsed (exit 2, naming the flag): NaN,
+/// infinities, zero where meaningless, out-of-range counts.
+#[test]
+fn numeric_flags_are_checked_at_parse_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let out_path = dir.path().join("out.ply");
+    let cases: &[(&str, &str)] = &[
+        ("poisson", "--point-weight=inf"),
+        ("poisson", "--point-weight=-1"),
+        ("poisson", "--trim=nan"),
+        ("poisson", "--trim-quantile=1.5"),
+        ("poisson", "--iters=4294967295"),
+        ("poisson", "--iters=0"),
+        ("poisson", "--samples-per-node=0"),
+        ("poisson", "--width=nan"),
+        ("render", "--near=nan"),
+        ("render", "--depth-scale=0"),
+        ("splat2points", "--min-opacity=nan"),
+        ("splat2points", "--max-points=9223372036854775808"),
+        ("splat2points", "--max-points=0"),
+    ];
+    for (bin, arg) in cases {
+        let out = run(bin, &[s(&mesh), arg, "-o", s(&out_path)], None);
+        let flag = arg.split('=').next().unwrap();
+        fails(&out, 2, &[flag]);
+        assert!(!out_path.exists(), "{bin} {arg} wrote output");
+    }
+}

@@ -146,6 +146,37 @@ pub fn positive_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A flag value that must be a finite number ≥ 0 (clap value parser).
+pub fn nonneg_f64(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{s} must be a finite number of at least zero"))
+    }
+}
+
+/// A flag value that must be a fraction in [0, 1) (clap value parser).
+pub fn fraction_f64(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if (0.0..1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{s} must be a fraction in [0, 1)"))
+    }
+}
+
+/// [`fraction_f64`] as f32.
+pub fn fraction_f32(s: &str) -> Result<f32, String> {
+    fraction_f64(s).map(|v| v as f32)
+}
+
 /// Turns a command's result into the process exit code: 0 on success, 2
 /// for a [`UsageError`], 1 otherwise, with `error: …` (and its causes) on
 /// stderr.

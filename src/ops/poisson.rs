@@ -11,7 +11,7 @@ use anyhow::Context;
 use clap::Args;
 use serde_json::json;
 
-use crate::cli::{Common, shown};
+use crate::cli::{Common, fraction_f64, nonneg_f64, positive_f64, shown};
 use crate::geom::poisson::pipeline::{PipelineOptions, run_pipeline_with_progress};
 use crate::geom::poisson::{PoissonParams, STAGES};
 use crate::geom::scene_split::{Aabb, SceneSplit};
@@ -39,16 +39,16 @@ pub struct PoissonArgs {
     #[arg(long, default_value_t = 5)]
     pub full_depth: u32,
     /// Samples per node of the density estimate (larger = smoother in sparse areas).
-    #[arg(long, default_value_t = 1.5)]
+    #[arg(long, default_value_t = 1.5, value_parser = positive_f64)]
     pub samples_per_node: f64,
     /// Screening weight (0 = unscreened Poisson; pymeshlab uses 4).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = nonneg_f64)]
     pub point_weight: f64,
     /// Cube side over the largest bounding-box extent of the points.
-    #[arg(long, default_value_t = 1.1)]
+    #[arg(long, default_value_t = 1.1, value_parser = positive_f64)]
     pub scale: f64,
     /// Gauss–Seidel sweeps per level.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
     pub iters: usize,
     /// Place iso-vertices by linear instead of quadratic interpolation.
     #[arg(long)]
@@ -58,7 +58,7 @@ pub struct PoissonArgs {
     #[arg(long)]
     pub uniform_extraction: bool,
     /// Finest cell width in world units (sets the depth; overrides --depth).
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", value_parser = positive_f64)]
     pub width: Option<f64>,
     /// Negate every input normal (for scans whose normals point inward).
     #[arg(long)]
@@ -69,21 +69,21 @@ pub struct PoissonArgs {
     pub sugar: bool,
     /// Remove vertices whose density is below this quantile of all densities,
     /// with their faces (SuGaR uses 0.1).
-    #[arg(long, value_name = "Q")]
+    #[arg(long, value_name = "Q", value_parser = fraction_f64)]
     pub trim_quantile: Option<f64>,
     /// Keep only the surface where density ≥ DENSITY, clipping faces along the
     /// iso-line (PoissonRecon's SurfaceTrimmer --trim; typical 5–7).
-    #[arg(long, value_name = "DENSITY")]
+    #[arg(long, value_name = "DENSITY", value_parser = nonneg_f64)]
     pub trim: Option<f64>,
     /// Split foreground / background by these cameras (any camera format or a
     /// 3DGS model folder) and reconstruct each part separately.
     #[arg(long, value_name = "CAMS")]
     pub split_by_cameras: Option<PathBuf>,
     /// Foreground cube half-side over the largest camera distance from the camera centroid.
-    #[arg(long, default_value_t = 1.1)]
+    #[arg(long, default_value_t = 1.1, value_parser = positive_f64)]
     pub fg_factor: f64,
     /// Background extent (L∞, around the camera centroid) over the foreground half-side; farther points are dropped.
-    #[arg(long, default_value_t = 4.0)]
+    #[arg(long, default_value_t = 4.0, value_parser = positive_f64)]
     pub bg_factor: f64,
     /// Foreground box in absolute coordinates (replaces the camera cube).
     #[arg(
@@ -102,7 +102,7 @@ pub struct PoissonArgs {
     #[arg(long, value_name = "K")]
     pub outlier_k: Option<usize>,
     /// Statistical outlier removal: standard-deviation ratio.
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", value_parser = positive_f64)]
     pub outlier_std: Option<f64>,
     #[command(flatten)]
     pub common: Common,

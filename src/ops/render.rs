@@ -20,7 +20,7 @@ use splatkit_render::loss::{psnr, ssim};
 use splatkit_render::{mesh as zbuffer, triangle};
 
 use crate::cli::orbit::OrbitArgs;
-use crate::cli::{Common, shown};
+use crate::cli::{Common, nonneg_f64, positive_f64, shown};
 use crate::geom::orbit::orbit_rings;
 use crate::io::cameras::npz::encode_npy_f32;
 use crate::io::cameras::read_cameras;
@@ -63,13 +63,13 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "median")]
     pub depth: DepthKind,
     /// Scale of the 16-bit depth PNG: stored value = round(depth × scale).
-    #[arg(long, default_value_t = 1000.0)]
+    #[arg(long, default_value_t = 1000.0, value_parser = positive_f64)]
     pub depth_scale: f64,
     /// Background colour r,g,b in [0, 1].
     #[arg(long, value_delimiter = ',', default_value = "0,0,0")]
     pub background: Vec<f32>,
     /// Near plane (camera z) for splats and meshes.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = 0.2, value_parser = nonneg_f64)]
     pub near: f64,
     #[command(flatten)]
     pub orbit: OrbitArgs,

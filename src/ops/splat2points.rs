@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 
 use crate::cli::orbit::OrbitArgs;
-use crate::cli::{Common, check_binary_stdout, shown};
+use crate::cli::{Common, check_binary_stdout, fraction_f32, nonneg_f64, shown};
 use crate::geom::levelset::{DepthSource, LevelsetOptions, sample_levelset, to_point_cloud};
 use crate::geom::orbit::orbit_rings;
 use crate::geom::splat_points::{centers, depth_points};
@@ -73,10 +73,10 @@ pub struct Splat2PointsArgs {
     #[arg(long, value_enum, default_value = "diamonds")]
     pub depth: DepthArg,
     /// Total point cap over all views, per level.
-    #[arg(long, default_value_t = 10_000_000)]
+    #[arg(long, default_value_t = 10_000_000, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1u64 << 40))]
     pub max_points: usize,
     /// Gaussians with opacity at or below this are dropped.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = fraction_f32)]
     pub min_opacity: f32,
     /// Hold out every N-th camera (name-sorted, from the first) as 3DGS's
     /// test split does; 0 keeps all.
@@ -95,7 +95,7 @@ pub struct Splat2PointsArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Near plane of the renders.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = 0.2, value_parser = nonneg_f64)]
     pub near: f64,
     /// Cameras made up around the scene instead of a camera file
     /// (`--orbit N`; no views are held out).
