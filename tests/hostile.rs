@@ -414,3 +414,85 @@ fn numeric_flags_are_checked_at_parse_time() {
         assert!(!out_path.exists(), "{bin} {arg} wrote output");
     }
 }
+
+/// A DTU evaluation whose inputs cannot give a score is an error naming
+/// the file and what is wrong, never `overall NaN` with exit 0: an
+/// inverted ObsMask bounding box, a NaN plane, an empty STL, a prediction
+/// outside the observed volume.
+#[test]
+fn dtu_inputs_without_a_meaningful_score_are_errors() {
+    use splatkit::io::dtu::{ObsMask, write_obs_mask, write_plane};
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("dtu");
+    std::fs::create_dir_all(root.join("Points/stl")).unwrap();
+    std::fs::create_dir_all(root.join("ObsMask")).unwrap();
+    let grid: Vec<[f32; 3]> = (0..100)
+        .map(|i| [(i % 10) as f32, (i / 10) as f32, 1.0])
+        .collect();
+    let stl = root.join("Points/stl/stl024_total.ply");
+    let good_mask = ObsMask {
+        mask: vec![1; 12 * 12 * 4],
+        dims: [12, 12, 4],
+        bb: [[-1.0, -1.0, -1.0], [11.0, 11.0, 3.0]],
+        res: 1.0,
+    };
+    let write_all = |stl_pts: &[[f32; 3]], mask: &ObsMask, plane: [f64; 4]| {
+        let pc = PointCloud {
+            positions: stl_pts.to_vec(),
+            ..Default::default()
+        };
+        save(&stl, &Scene::PointCloud(pc), FileFormat::Ply).unwrap();
+        write_obs_mask(&root.join("ObsMask/ObsMask24_10.mat"), mask).unwrap();
+        write_plane(&root.join("ObsMask/Plane24.mat"), plane).unwrap();
+    };
+    let pred = dir.path().join("pred.ply");
+    let near = PointCloud {
+        positions: grid.iter().map(|p| [p[0] + 0.1, p[1], p[2]]).collect(),
+        ..Default::default()
+    };
+    save(&pred, &Scene::PointCloud(near), FileFormat::Ply).unwrap();
+    let dtu = |extra: &[&str]| {
+        let mut a = vec![
+            "--protocol",
+            "dtu",
+            "--scan",
+            "24",
+            "--pcd",
+            "--dataset-dir",
+            s(&root),
+            s(&pred),
+        ];
+        a.extend_from_slice(extra);
+        run("chamfer", &a, None)
+    };
+    // The well-formed case scores (so the failures below are about the inputs).
+    write_all(&grid, &good_mask, [0.0, 0.0, 1.0, 0.0]);
+    let ok = dtu(&["--json"]);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
+    assert!(v["overall"].as_f64().unwrap().is_finite());
+
+    let mut inverted = good_mask.clone();
+    inverted.bb = [[11.0, -1.0, -1.0], [-1.0, 11.0, 3.0]];
+    write_all(&grid, &inverted, [0.0, 0.0, 1.0, 0.0]);
+    fails(&dtu(&[]), 1, &["ObsMask24_10.mat", "inverted bounding box"]);
+
+    write_all(&grid, &good_mask, [f64::NAN, 0.0, 1.0, 0.0]);
+    fails(&dtu(&[]), 1, &["Plane24.mat", "not a plane"]);
+
+    write_all(&[], &good_mask, [0.0, 0.0, 1.0, 0.0]);
+    fails(&dtu(&[]), 1, &["stl024_total.ply", "no points"]);
+
+    write_all(&grid, &good_mask, [0.0, 0.0, 1.0, 0.0]);
+    let far = PointCloud {
+        positions: grid.iter().map(|p| [p[0] + 1000.0, p[1], p[2]]).collect(),
+        ..Default::default()
+    };
+    save(&pred, &Scene::PointCloud(far), FileFormat::Ply).unwrap();
+    fails(&dtu(&[]), 1, &["pred.ply", "observed volume"]);
+}

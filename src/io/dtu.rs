@@ -44,6 +44,15 @@ pub fn read_obs_mask(path: &Path) -> Result<ObsMask> {
             format!("variable 'BB' holds a non-finite value: {bb:?}"),
         ));
     }
+    if (0..3).any(|i| bb[0][i] > bb[1][i]) {
+        return Err(Error::format(
+            name,
+            format!(
+                "variable 'BB' is an inverted bounding box: minimum {:?} exceeds maximum {:?} on some axis",
+                bb[0], bb[1]
+            ),
+        ));
+    }
 
     let res = scalar(&arrays, "Res", name)?;
     if !(res.is_finite() && res > 0.0) {
@@ -90,6 +99,14 @@ pub fn read_plane(path: &Path) -> Result<[f64; 4]> {
         return Err(wrong_shape(name, p, "a 4-vector (4×1 or 1×4)"));
     }
     let v = p.to_f64();
+    if v.iter().any(|x| !x.is_finite()) || v[..3].iter().all(|&x| x == 0.0) {
+        return Err(Error::format(
+            name,
+            format!(
+                "variable 'P' = {v:?} is not a plane (needs finite values and a non-zero normal)"
+            ),
+        ));
+    }
     Ok([v[0], v[1], v[2], v[3]])
 }
 

@@ -225,7 +225,42 @@ pub fn parse_trans(name: &str, bytes: &[u8]) -> Result<DMat4> {
             format!("expected a 4×4 matrix, found {rows} rows"),
         ));
     }
+    check_transform(name, &m)?;
     Ok(from_rows(&m))
+}
+
+/// A `_trans.txt` must be an invertible, orientation-preserving affine
+/// transform (last row 0 0 0 1, finite, 3×3 part with a positive and
+/// well-conditioned determinant): an all-zero matrix, a projection or a
+/// reflection would make the alignment and crop meaningless (an all-zero
+/// matrix used to score precision = recall = 1), so it is refused rather
+/// than scored. The toolbox's files are similarities; a non-uniform scale
+/// is accepted since the toolbox would apply it as given.
+fn check_transform(name: &str, m: &[[f64; 4]; 4]) -> Result<()> {
+    let refuse = |why: &str| {
+        Err(Error::format(
+            name,
+            format!("not a usable alignment transform ({why}): {m:?}"),
+        ))
+    };
+    if m.iter().flatten().any(|v| !v.is_finite()) {
+        return refuse("a value is not finite");
+    }
+    if m[3] != [0.0, 0.0, 0.0, 1.0] {
+        return refuse("the last row must be 0 0 0 1");
+    }
+    let a = glam::DMat3::from_cols_array_2d(&[
+        [m[0][0], m[1][0], m[2][0]],
+        [m[0][1], m[1][1], m[2][1]],
+        [m[0][2], m[1][2], m[2][2]],
+    ]);
+    let det = a.determinant();
+    // Relative to the size of the entries: |det| ≤ 1e-12·‖A‖³ is singular.
+    let norm = a.to_cols_array().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(det > 1e-12 * norm.powi(3)) {
+        return refuse("its 3×3 part is singular or a reflection");
+    }
+    Ok(())
 }
 
 /// Reads a `_trans.txt` file (`-` = stdin). See [`parse_trans`].
@@ -394,6 +429,30 @@ pub fn write_crop_json(path: &Path, crop: &CropVolume) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A `_trans.txt` that cannot align anything (all zeros, singular, a
+    /// reflection, a bad last row, NaN) is refused, naming the file.
+    #[test]
+    fn trans_must_be_usable() {
+        let ok = "2 0 0 1\n0 0 -2 2\n0 2 0 3\n0 0 0 1\n";
+        assert!(parse_trans("t.txt", ok.as_bytes()).is_ok());
+        for bad in [
+            "0 0 0 0\n0 0 0 0\n0 0 0 0\n0 0 0 0\n",
+            "1 1 0 0\n1 1 0 0\n0 0 1 0\n0 0 0 1\n",
+            "-1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n",
+            "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n",
+            "1 0 0 nan\n0 1 0 0\n0 0 1 0\n0 0 0 1\n",
+        ] {
+            let e = parse_trans("t.txt", bad.as_bytes())
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("t.txt"), "{e}");
+            assert!(
+                e.contains("not a usable alignment") || e.contains("non-finite"),
+                "{e}"
+            );
+        }
+    }
     use crate::testing::shared_data;
 
     /// The toolbox's own test trajectory: 151 frames, each a rigid

@@ -257,6 +257,9 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
     }
     let stl_path = ds.stl_path(f.scan);
     let stl = load_points(&stl_path, "chamfer")?;
+    if stl.is_empty() {
+        bail!("ground truth {}: holds no points", stl_path.display());
+    }
     let stl: Vec<[f64; 3]> = f64_points(&stl.positions);
     let obs = crate::io::dtu::read_obs_mask(&ds.obs_mask_path(f.scan))?;
     let plane = crate::io::dtu::read_plane(&ds.plane_path(f.scan))?;
@@ -269,6 +272,24 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         }
     };
     let report = evaluate_dtu(&pred, &stl, &obs, plane, params)?;
+    // An empty side would give a NaN score: say why instead.
+    if report.points_in_obs == 0 {
+        bail!(
+            "prediction {}: none of its {} points falls in scan {}'s observed volume (ObsMask, bounding box {:?}..{:?} mm): is it in millimetres, in the DTU frame (--cull maps a normalised mesh)?",
+            shown(f.pred, false),
+            report.points_down,
+            f.scan,
+            obs.bb[0],
+            obs.bb[1]
+        );
+    }
+    if report.stl_above_plane == 0 {
+        bail!(
+            "ground truth {}: no point lies above the plane of {}",
+            stl_path.display(),
+            ds.plane_path(f.scan).display()
+        );
+    }
     Ok(DtuRun {
         report,
         culled,
