@@ -257,7 +257,7 @@ fn check_transform(name: &str, m: &[[f64; 4]; 4]) -> Result<()> {
     let det = a.determinant();
     // Relative to the size of the entries: |det| ≤ 1e-12·‖A‖³ is singular.
     let norm = a.to_cols_array().iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !(det > 1e-12 * norm.powi(3)) {
+    if det.is_nan() || det <= 1e-12 * norm.powi(3) {
         return refuse("its 3×3 part is singular or a reflection");
     }
     Ok(())
