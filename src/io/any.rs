@@ -17,7 +17,7 @@
 //! shorthands); any other kind gets the same error everywhere: the file,
 //! what it holds, and what the command takes.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::io::detect::{FileFormat, PlyKind};
 use crate::io::ply::{Format, Header};
@@ -34,6 +34,9 @@ pub struct Opened {
     pub format: FileFormat,
     /// What a PLY's header says it holds (`None` for other formats).
     pub ply_kind: Option<PlyKind>,
+    /// The folder relative files (glTF external buffers) are resolved in:
+    /// the file's folder, or the current folder for stdin.
+    pub base: PathBuf,
 }
 
 impl Opened {
@@ -89,7 +92,7 @@ impl Opened {
             (SceneKind::PointCloud, _) => {
                 Scene::PointCloud(ply::points::parse_points(name, bytes)?)
             }
-            (SceneKind::Mesh, f) => Scene::Mesh(parse_mesh_as(f, name, bytes)?),
+            (SceneKind::Mesh, f) => Scene::Mesh(parse_mesh_as(f, name, bytes, &self.base)?),
         })
     }
 
@@ -135,10 +138,15 @@ pub fn open(path: &Path) -> Result<Opened> {
     } else {
         None
     };
+    let base = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() && !input.is_stdin() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
     Ok(Opened {
         input,
         format,
         ply_kind,
+        base,
     })
 }
 
@@ -183,12 +191,12 @@ pub fn load_points(path: &Path, command: &str) -> Result<PointCloud> {
     Ok(scene.into_points().expect("points or mesh"))
 }
 
-fn parse_mesh_as(f: FileFormat, name: &str, bytes: &[u8]) -> Result<Mesh> {
+fn parse_mesh_as(f: FileFormat, name: &str, bytes: &[u8], base: &Path) -> Result<Mesh> {
     match f {
         FileFormat::Ply => ply::mesh::parse_mesh(name, bytes),
         FileFormat::Obj => obj::parse_obj(name, bytes),
         FileFormat::Off => off::parse_off(name, bytes),
-        FileFormat::Glb | FileFormat::Gltf => gltf::parse_gltf(name, bytes),
+        FileFormat::Glb | FileFormat::Gltf => gltf::parse_gltf_in(name, bytes, base),
         other => Err(Error::format(
             name,
             format!("is a {} file, not a mesh", other.name()),
@@ -400,5 +408,34 @@ mod tests {
                 .to_string()
                 .contains("unknown file format")
         );
+    }
+
+    /// A `.gltf` whose buffer is an external file next to it loads through
+    /// the common loader (the buffer is resolved in the file's folder).
+    #[test]
+    fn gltf_external_buffers_resolve_next_to_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut bin = Vec::new();
+        for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+        for i in [0u16, 1, 2, 0] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        std::fs::write(dir.path().join("tri.bin"), &bin).unwrap();
+        let json = r#"{"asset":{"version":"2.0"},
+            "buffers":[{"uri":"tri.bin","byteLength":44}],
+            "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},
+                           {"buffer":0,"byteOffset":36,"byteLength":6}],
+            "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
+                          "min":[0,0,0],"max":[1,1,0]},
+                         {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}],
+            "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+            "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#;
+        let p = dir.path().join("tri.gltf");
+        std::fs::write(&p, json).unwrap();
+        let m = load_mesh(&p, "test").unwrap();
+        assert_eq!(m.faces, vec![[0, 1, 2]]);
+        assert_eq!(m.vertices[1], [1.0, 0.0, 0.0]);
     }
 }

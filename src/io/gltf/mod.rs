@@ -67,7 +67,7 @@ mod write;
 
 use std::borrow::Cow;
 
-pub use read::{parse_gltf, read_gltf};
+pub use read::{parse_gltf, parse_gltf_in, read_gltf};
 pub use write::{GltfContainer, GltfWriteOptions, face_colors_to_corners, write_gltf};
 
 fn pad4(n: usize) -> usize {

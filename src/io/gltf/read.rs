@@ -34,6 +34,12 @@ pub fn parse_gltf(name: &str, bytes: &[u8]) -> Result<Mesh> {
     parse_gltf_impl(name, bytes, None)
 }
 
+/// [`parse_gltf`] with external buffer files resolved relative to `base`
+/// (the folder of the file the bytes came from).
+pub fn parse_gltf_in(name: &str, bytes: &[u8], base: &Path) -> Result<Mesh> {
+    parse_gltf_impl(name, bytes, Some(base))
+}
+
 const GLB_JSON: u32 = 0x4E4F_534A;
 const GLB_BIN: u32 = 0x004E_4942;
 
@@ -138,8 +144,16 @@ fn parse_gltf_impl(name: &str, bytes: &[u8], base: Option<&Path>) -> Result<Mesh
             }
         }
     }
-    let doc = gltf::Document::from_json(root)
-        .map_err(|e| Error::format(name, format!("invalid glTF: {e}")))?;
+    let doc = gltf::Document::from_json(root).map_err(|e| {
+        // gltf's own message may already start with "invalid glTF".
+        let msg = e.to_string();
+        let msg = if msg.starts_with("invalid glTF") {
+            msg
+        } else {
+            format!("invalid glTF: {msg}")
+        };
+        Error::format(name, msg)
+    })?;
     let buffers = load_buffers(name, &doc, blob, base)?;
     let mut out = Merge::default();
     for (mesh, matrix) in mesh_instances(name, &doc)? {
