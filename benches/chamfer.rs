@@ -132,6 +132,7 @@ fn main() {
             scan: 24,
             pcd: false,
             cull: None,
+            max_samples: u64::MAX,
         },
         &DtuParams::default(),
     )
@@ -159,6 +160,7 @@ fn main() {
                     scan: 24,
                     pcd: false,
                     cull: None,
+                    max_samples: u64::MAX,
                 },
                 &DtuParams {
                     seed,

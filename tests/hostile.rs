@@ -495,4 +495,64 @@ fn dtu_inputs_without_a_meaningful_score_are_errors() {
     };
     save(&pred, &Scene::PointCloud(far), FileFormat::Ply).unwrap();
     fails(&dtu(&[]), 1, &["pred.ply", "observed volume"]);
+
+    // A mesh prediction whose DTU up-sampling cannot fit: refused up front.
+    let big = dir.path().join("big.ply");
+    save(&big, &Scene::Mesh(big_triangle()), FileFormat::Ply).unwrap();
+    let out = run(
+        "chamfer",
+        &[
+            "--protocol",
+            "dtu",
+            "--scan",
+            "24",
+            "--dataset-dir",
+            s(&root),
+            s(&big),
+        ],
+        None,
+    );
+    fails(&out, 1, &["prediction", "big.ply", "--max-samples"]);
+}
+
+/// One triangle 10⁴ units across.
+fn big_triangle() -> Mesh {
+    Mesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0e4, 0.0, 0.0], [0.0, 1.0e4, 0.0]],
+        vec![[0, 1, 2]],
+    )
+}
+
+/// Sampling that would not fit in memory is refused before it starts,
+/// naming the side and the file: the DTU up-sampling of a huge triangle,
+/// a tiny `--spacing`, an enormous `--count`.
+#[test]
+fn sample_counts_are_estimated_and_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.ply");
+    save(&big, &Scene::Mesh(big_triangle()), FileFormat::Ply).unwrap();
+    let small = mesh_file(dir.path());
+    for (args, side) in [
+        (vec![s(&big), s(&small), "--sample", "dtu"], "prediction"),
+        (vec![s(&small), s(&big), "--sample", "dtu"], "ground truth"),
+        (
+            vec![s(&small), s(&small), "--sample", "dtu", "--spacing", "1e-6"],
+            "prediction",
+        ),
+        (
+            vec![s(&small), s(&small), "--count", "300000000"],
+            "prediction",
+        ),
+    ] {
+        let out = run("chamfer", &args, None);
+        fails(&out, 1, &[side, "--max-samples"]);
+    }
+    // Within the bound, the same files evaluate.
+    let out = run("chamfer", &[s(&small), s(&small), "--count", "1000"], None);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

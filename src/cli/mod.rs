@@ -235,6 +235,29 @@ pub fn check_output_file(path: &Path, what: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Bytes of memory this process may use: the smaller of the machine's
+/// total memory (`/proc/meminfo`) and the address-space limit
+/// (`ulimit -v`, from `/proc/self/limits`); `None` where neither can be read.
+pub fn memory_budget() -> Option<u64> {
+    let total = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        t.lines()
+            .find(|l| l.starts_with("MemTotal:"))
+            .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+            .map(|kib| kib * 1024)
+    });
+    let limit = std::fs::read_to_string("/proc/self/limits")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("Max address space"))
+                .and_then(|l| l.split_whitespace().nth(3)?.parse::<u64>().ok())
+        });
+    match (total, limit) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
 /// Refuses to write binary data to a terminal.
 pub fn check_binary_stdout(path: &Path) -> anyhow::Result<()> {
     if path.as_os_str() == "-" && std::io::stdout().is_terminal() {

@@ -105,6 +105,37 @@ pub fn dtu_upsample(
     }
 }
 
+/// An estimate (from above, within a small factor) of how many points
+/// [`dtu_mesh_points`] makes at spacing `d`: the vertices plus, per face,
+/// half the (n1 + 1)·(n2 + 1) grid of [`dtu_upsample`]. Costs one pass over
+/// the faces and allocates nothing, so callers can refuse a request that
+/// would not fit in memory before sampling (infinite for a non-positive or
+/// non-finite `d` with any non-degenerate face).
+pub fn dtu_sample_estimate(vertices: &[[f64; 3]], faces: &[[u32; 3]], d: f64) -> f64 {
+    let mut total = vertices.len() as f64;
+    for f in faces {
+        let Some([a, b, c]) = f
+            .iter()
+            .map(|&i| vertices.get(i as usize).map(|v| DVec3::from_array(*v)))
+            .collect::<Option<Vec<_>>>()
+            .map(|v| [v[0], v[1], v[2]])
+        else {
+            continue;
+        };
+        let (e1, e2) = (b - a, c - a);
+        let (l1, l2, a2) = (e1.length(), e2.length(), e1.cross(e2).length());
+        if a2.is_nan() || a2 <= 0.0 || a2.is_infinite() {
+            continue;
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return f64::INFINITY;
+        }
+        let thr = d * (l1 * l2 / a2).sqrt();
+        total += ((l1 / thr).floor() + 1.0) * ((l2 / thr).floor() + 1.0) / 2.0;
+    }
+    total
+}
+
 /// Checks that every face index is below `n_vertices`.
 fn check_faces(n_vertices: usize, faces: &[[u32; 3]]) -> Result<()> {
     for (f, face) in faces.iter().enumerate() {
@@ -338,6 +369,36 @@ pub fn sample_area_uniform(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The up-sampling estimate bounds the real count from above, within a
+    /// factor of 3 (triangles of every shape, spacing from coarse to fine).
+    #[test]
+    fn dtu_estimate_bounds_the_real_count() {
+        let mut rng = crate::model::rng::seeded(5);
+        use rand::RngExt;
+        for _ in 0..200 {
+            let v: Vec<[f64; 3]> = (0..3)
+                .map(|_| [0, 1, 2].map(|_| rng.random_range(-10.0..10.0)))
+                .collect();
+            for d in [0.05, 0.3, 2.0] {
+                let real = dtu_mesh_points(&v, &[[0, 1, 2]], d).unwrap().len() as f64;
+                let est = dtu_sample_estimate(&v, &[[0, 1, 2]], d);
+                assert!(est >= real, "estimate {est} < real {real}");
+                assert!(
+                    est <= 3.0 * real + 8.0,
+                    "estimate {est} far above real {real}"
+                );
+            }
+        }
+        assert!(
+            dtu_sample_estimate(
+                &[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                &[[0, 1, 2]],
+                0.0
+            )
+            .is_infinite()
+        );
+    }
 
     fn upsample_vec(t: [[f64; 3]; 3], d: f64) -> Vec<[f64; 3]> {
         let mut out = Vec::new();

@@ -21,6 +21,7 @@ use crate::eval::chamfer::{
 };
 use crate::eval::cull::{CullView, DILATION_RADIUS, dilate_disk};
 use crate::eval::dtu::{DtuParams, DtuPrediction, DtuReport, evaluate_dtu, vis_color};
+use crate::geom::sample::dtu_sample_estimate;
 use crate::io::any::{load_kinds, load_mesh, load_points};
 use crate::io::cameras::npz::{NpzOptions, read_neus_cameras};
 use crate::io::cameras::validate_cameras;
@@ -29,15 +30,54 @@ use crate::io::ply::{Format, points::write_points};
 use crate::model::{PointCloud, Scene, SceneKind};
 use crate::{Error, Result};
 
+/// Bytes one sampled point costs through an evaluation (f64 position, its
+/// share of the k-d tree, distances, the downsampling order), rounded up.
+const BYTES_PER_SAMPLE: u64 = 128;
+
+/// The default of `--max-samples` (see its help).
+pub fn default_max_samples() -> u64 {
+    crate::cli::memory_budget().map_or(100_000_000, |b| (b / BYTES_PER_SAMPLE).max(1))
+}
+
+/// Refuses to make about `estimate` points from `file` (the `side` of the
+/// evaluation) when that exceeds `max`.
+fn check_samples(side: &str, file: &Path, estimate: f64, max: u64, how: &str) -> Result<()> {
+    if estimate > max as f64 {
+        return Err(Error::invalid(format!(
+            "{side} {}: {how} would make about {estimate:.3e} points, more than --max-samples {max} \
+             (raise it, or use a coarser --spacing / smaller --count)",
+            shown(file, false)
+        )));
+    }
+    Ok(())
+}
+
 /// Loads a point cloud or mesh file as points (`-` = stdin): a cloud's
-/// points (and normals), a mesh by `p.sample`.
-pub fn load_cloud(path: &Path, p: &GenericParams) -> Result<Cloud> {
+/// points (and normals), a mesh by `p.sample`; `side` ("prediction" or
+/// "ground truth") names it in errors, and a mesh that would give more than
+/// `max_samples` points is refused before sampling.
+pub fn load_cloud(path: &Path, p: &GenericParams, side: &str, max_samples: u64) -> Result<Cloud> {
     match load_kinds(path, "chamfer", &[SceneKind::Mesh, SceneKind::PointCloud])? {
         Scene::PointCloud(pc) => Ok(Cloud {
             points: f64_points(&pc.positions),
             normals: pc.normals.as_ref().map(|n| f64_points(n)),
         }),
-        Scene::Mesh(m) => mesh_cloud(&m, p),
+        Scene::Mesh(m) => {
+            match p.sample {
+                SampleMode::Area => {
+                    check_samples(side, path, p.count as f64, max_samples, "--count")?
+                }
+                SampleMode::Dtu => check_samples(
+                    side,
+                    path,
+                    dtu_sample_estimate(&f64_points(&m.vertices), &m.faces, p.spacing),
+                    max_samples,
+                    "DTU up-sampling at this --spacing",
+                )?,
+                SampleMode::Vertices => {}
+            }
+            mesh_cloud(&m, p)
+        }
         _ => unreachable!("load_kinds returns an accepted kind"),
     }
 }
@@ -78,6 +118,12 @@ pub struct ChamferArgs {
     /// Spacing of --sample dtu (same unit as the data), > 0.
     #[arg(long, default_value_t = 0.2, value_parser = positive_f64)]
     pub spacing: f64,
+    /// Refuse an evaluation that would make more than N points from a mesh
+    /// (the estimate of `--count` or of the DTU up-sampling, area / spacing²).
+    /// Default: the memory this process may use over 128 bytes per point
+    /// (about 200 million on 24 GiB), 100 million when that cannot be read.
+    #[arg(long, value_name = "N", value_parser = clap::builder::RangedU64ValueParser::<u64>::new().range(1..))]
+    pub max_samples: Option<u64>,
     /// Use mesh vertices instead of samples (same as --sample vertices).
     #[arg(long)]
     pub vertices: bool,
@@ -164,14 +210,15 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
         max_dist: args.max_dist,
         seed: args.seed,
     };
-    let mut pred = load_cloud(pred_path, &params)?;
+    let max_samples = args.max_samples.unwrap_or_else(default_max_samples);
+    let mut pred = load_cloud(pred_path, &params, "prediction", max_samples)?;
     // A different seed for the GT's samples, so two copies of one mesh are
     // not sampled at identical points.
     let gt_params = GenericParams {
         seed: params.seed ^ 0x9e37_79b9_7f4a_7c15,
         ..params.clone()
     };
-    let mut gt = load_cloud(gt_path, &gt_params)?;
+    let mut gt = load_cloud(gt_path, &gt_params, "ground truth", max_samples)?;
     let dropped = [drop_non_finite(&mut pred), drop_non_finite(&mut gt)];
     let report = chamfer_generic(&pred, &gt, &params)?;
     args.common.say(format!(
@@ -215,6 +262,8 @@ pub struct DtuFiles<'a> {
     pub pcd: bool,
     /// `cameras.npz` and mask folder for the culling step.
     pub cull: Option<(&'a Path, &'a Path)>,
+    /// Refuse a mesh whose up-sampling would exceed this many points.
+    pub max_samples: u64,
 }
 
 /// What [`dtu_from_files`] returns.
@@ -235,11 +284,23 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         if f.cull.is_some() {
             bail!("--cull applies to meshes; it cannot be combined with --pcd");
         }
-        let pc = load_cloud(f.pred, &GenericParams::vertices())?;
+        let pc = load_cloud(
+            f.pred,
+            &GenericParams::vertices(),
+            "prediction",
+            f.max_samples,
+        )?;
         (pc.points, Vec::new(), None)
     } else {
         let m = load_mesh(f.pred, "chamfer")?;
         let verts = f64_points(&m.vertices);
+        check_samples(
+            "prediction",
+            f.pred,
+            dtu_sample_estimate(&verts, &m.faces, params.density),
+            f.max_samples,
+            "the DTU up-sampling",
+        )?;
         if let Some((cams, masks)) = f.cull {
             let (views, scale_mat) = load_cull_views(cams, masks)?;
             let (v, fc, removed) =
@@ -370,6 +431,7 @@ fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
             dataset_dir: root,
             scan,
             pcd: args.pcd,
+            max_samples: args.max_samples.unwrap_or_else(default_max_samples),
             cull,
         },
         &params,
@@ -471,7 +533,13 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
         let m = load_mesh(pred_path, "chamfer")?;
         vertices_and_face_centroids(&f64_points(&m.vertices), &m.faces)?
     } else {
-        load_cloud(pred_path, &GenericParams::vertices())?.points
+        load_cloud(
+            pred_path,
+            &GenericParams::vertices(),
+            "prediction",
+            args.max_samples.unwrap_or_else(default_max_samples),
+        )?
+        .points
     };
     let gt = load_points(&file(".ply"), "chamfer")?;
     let gt_points = f64_points(&gt.positions);
