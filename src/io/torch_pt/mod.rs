@@ -119,13 +119,23 @@ fn to_pt_value(v: &Value) -> Result<PtValue, String> {
     })
 }
 
+/// The largest `data.pkl` inflated: the pickle holds only names, shapes
+/// and storage keys (a few KB for a Triangle Splatting model).
+const MAX_PICKLE_BYTES: u64 = 64 << 20;
+
 impl<'a> TorchCheckpoint<'a> {
     /// Parses the archive in `bytes`; `name` is used in error messages.
     pub fn parse(name: &str, bytes: &'a [u8]) -> Result<Self> {
         let archive = zip::TorchArchive::open(bytes).map_err(|m| Error::format(name, m))?;
         let pkl = archive
-            .record("data.pkl")
-            .map_err(|m| Error::format(name, m))?;
+            .record_capped("data.pkl", MAX_PICKLE_BYTES)
+            .map_err(|m| Error::format(name, m))?
+            .ok_or_else(|| {
+                Error::format(
+                    name,
+                    format!("zip archive has no record {}data.pkl", archive.prefix),
+                )
+            })?;
         let root = pickle::unpickle(&pkl).map_err(|e| {
             Error::format(
                 name,
@@ -207,11 +217,16 @@ impl<'a> TorchCheckpoint<'a> {
     fn storage(&self, key: &str, t: &TensorInfo) -> Result<Cow<'a, [u8]>> {
         let es = t.dtype.size() as u64;
         let rec = format!("data/{}", t.storage_key);
-        let bytes = self.archive.record(&rec).map_err(|m| self.err(key, m))?;
         let declared = t
             .storage_numel
             .checked_mul(es)
             .ok_or_else(|| self.err(key, "storage size overflows"))?;
+        // A compressed record is inflated only up to what the storage needs.
+        let bytes = self
+            .archive
+            .record_capped(&rec, declared)
+            .map_err(|m| self.err(key, m))?
+            .ok_or_else(|| self.err(key, format!("zip archive has no record {rec}")))?;
         if declared > bytes.len() as u64 {
             return Err(self.err(
                 key,

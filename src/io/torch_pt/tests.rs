@@ -987,6 +987,49 @@ fn deflated_records_are_inflated() {
     );
 }
 
+/// A storage record that inflates to far more than its tensors need (a
+/// small file claiming a large uncompressed size, as a "zip bomb") is
+/// refused before it is inflated: the declared size is checked against the
+/// storage's element count times its element size.
+#[test]
+fn oversized_deflated_records_are_refused_before_inflating() {
+    let mut rng = Pcg64::seed_from_u64(16);
+    let soup = random_soup(&mut rng, 12, 2);
+    let stored = to_bytes(&soup);
+    let mut src = ::zip::ZipArchive::new(std::io::Cursor::new(&stored[..])).unwrap();
+    let mut out = std::io::Cursor::new(Vec::new());
+    {
+        let mut w = ::zip::ZipWriter::new(&mut out);
+        let opts = ::zip::write::SimpleFileOptions::default()
+            .compression_method(::zip::CompressionMethod::Deflated);
+        for i in 0..src.len() {
+            let mut f = src.by_index(i).unwrap();
+            let name = f.name().unwrap().to_string();
+            let mut data = Vec::new();
+            std::io::Read::read_to_end(&mut f, &mut data).unwrap();
+            if name.ends_with("/data/0") {
+                data.resize(data.len() + (20 << 20), 0);
+            }
+            w.start_file(name, opts).unwrap();
+            std::io::Write::write_all(&mut w, &data).unwrap();
+        }
+        w.finish().unwrap();
+    }
+    let bomb = out.into_inner();
+    assert!(
+        bomb.len() < 200_000,
+        "the padded archive stays small: {}",
+        bomb.len()
+    );
+    let e = parse_triangle_checkpoint("bomb.pt", &bomb)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("bomb.pt") && e.contains("needs at most"),
+        "{e}"
+    );
+}
+
 /// Enough extras that the writer's memo passes 256 entries (LONG_BINPUT /
 /// LONG_BINGET) and the storage keys reach two digits.
 #[test]

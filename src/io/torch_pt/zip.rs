@@ -148,6 +148,14 @@ impl<'a> TorchArchive<'a> {
 
     /// The bytes of `<prefix><rel>`, or `None` when there is no such record.
     pub fn record_opt(&self, rel: &str) -> Result<Option<Cow<'a, [u8]>>, String> {
+        self.record_capped(rel, u64::MAX)
+    }
+
+    /// [`Self::record_opt`], refusing to inflate a compressed record that
+    /// declares more than `max` bytes (what the tensors stored in it need),
+    /// so a small file cannot make the reader allocate far more than its
+    /// contents can use.
+    pub fn record_capped(&self, rel: &str, max: u64) -> Result<Option<Cow<'a, [u8]>>, String> {
         let name = format!("{}{rel}", self.prefix);
         let Some(rec) = self.records.get(&name).copied() else {
             return Ok(None);
@@ -155,6 +163,12 @@ impl<'a> TorchArchive<'a> {
         let raw = &self.bytes[rec.start as usize..(rec.start + rec.compressed) as usize];
         if rec.stored {
             return Ok(Some(Cow::Borrowed(raw)));
+        }
+        if rec.size > max {
+            return Err(format!(
+                "zip entry {name:?} declares {} bytes uncompressed, but what is stored in it needs at most {max}",
+                rec.size
+            ));
         }
         // Deflate expands at most 1032:1; a larger declared size is corrupt
         // and must not drive the allocation.
