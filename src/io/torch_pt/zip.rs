@@ -198,7 +198,8 @@ impl<'a> TorchArchive<'a> {
         Ok(Some(Cow::Owned(out)))
     }
 
-    /// The bytes of `<prefix><rel>`, which must exist.
+    /// The bytes of `<prefix><rel>`, which must exist (tests).
+    #[cfg(test)]
     pub fn record(&self, rel: &str) -> Result<Cow<'a, [u8]>, String> {
         self.record_opt(rel)?
             .ok_or_else(|| format!("zip archive has no record {}{rel}", self.prefix))
