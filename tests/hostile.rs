@@ -556,3 +556,27 @@ fn sample_counts_are_estimated_and_bounded() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// A zero-byte or garbage `.obj` is not an empty mesh that commands
+/// happily process: it is an error naming the file.
+#[test]
+fn empty_or_garbage_obj_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("out.ply");
+    for (name, bytes) in [
+        ("empty.obj", &b""[..]),
+        ("garbage.obj", &b"\x00\x01hello world\nnot an obj\n"[..]),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        for bin in ["clean", "decimate", "export-off"] {
+            let mut args = vec![s(&p), "-o", s(&out_path)];
+            if bin == "decimate" {
+                args.extend(["--faces", "1"]);
+            }
+            let out = run(bin, &args, None);
+            fails(&out, 1, &[name]);
+            assert!(!out_path.exists(), "{bin} wrote output for {name}");
+        }
+    }
+}

@@ -92,7 +92,21 @@ impl Opened {
             (SceneKind::PointCloud, _) => {
                 Scene::PointCloud(ply::points::parse_points(name, bytes)?)
             }
-            (SceneKind::Mesh, f) => Scene::Mesh(parse_mesh_as(f, name, bytes, &self.base)?),
+            (SceneKind::Mesh, f) => {
+                let m = parse_mesh_as(f, name, bytes, &self.base)?;
+                // A zero-byte or garbage text file parses as "no statements":
+                // an empty mesh is never what a user meant to pass.
+                if m.vertices.is_empty() {
+                    return Err(Error::format(
+                        name,
+                        format!(
+                            "holds no vertices: an empty {} file, or not one at all",
+                            f.name()
+                        ),
+                    ));
+                }
+                Scene::Mesh(m)
+            }
         })
     }
 
