@@ -80,6 +80,14 @@ fn split_glb<'a>(name: &str, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u
     let mut json = None;
     let mut bin = None;
     while off < bytes.len() {
+        // The chunk header must lie inside the declared length (the file
+        // may hold more bytes than the header declares).
+        if off + 8 > bytes.len() {
+            return Err(err(
+                off,
+                format!("GLB chunk header runs past the declared length {length}"),
+            ));
+        }
         let len = u32_at(off)? as usize;
         let ty = u32_at(off + 4)?;
         let start = off + 8;

@@ -335,3 +335,22 @@ fn external_buffer_file() {
     assert_eq!(m.faces, vec![[0, 1, 2]]);
     assert_eq!(m.vertices[1], [1.0, 0.0, 0.0]);
 }
+
+/// Found by `examples/fuzz_readers.rs`: a GLB whose header declares fewer
+/// bytes than the file holds, with a chunk header straddling that length,
+/// is an error naming the offset (it used to slice out of range).
+#[test]
+fn chunk_header_past_the_declared_length_is_an_error() {
+    let mesh = Mesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2]],
+    );
+    let mut glb = Vec::new();
+    write_gltf(&mut glb, &mesh, &GltfWriteOptions::default()).unwrap();
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    // Declared length ends 4 bytes into the BIN chunk's header.
+    let cut = 12 + 8 + json_len + 4;
+    glb[8..12].copy_from_slice(&(cut as u32).to_le_bytes());
+    let e = parse_gltf("cut.glb", &glb).unwrap_err().to_string();
+    assert!(e.starts_with("cut.glb") && e.contains("byte offset"), "{e}");
+}

@@ -1,0 +1,390 @@
+//! A seeded mutation fuzzer over every file reader (issue 11): PLY (generic,
+//! Gaussians, mesh, points, soup), OBJ, OFF, glTF/GLB, Triangle Splatting
+//! `.pt`, MATLAB `.mat`, NumPy `.npy` / NeuS `.npz`, COLMAP binary and text,
+//! 3DGS `cameras.json`, `transforms.json`, the Tanks-and-Temples `.log`,
+//! `_trans.txt` and crop JSON.
+//!
+//! Seeds are the files in `testdata/` plus small files written by
+//! splatkit's own writers. Each execution takes a seed, applies 1–4 random
+//! mutations (bit flips, boundary bytes and integers, truncation, chunk
+//! deletion / duplication / insertion, number tokens replaced by extreme
+//! values in text) and calls the reader. A reader must return `Ok` or `Err`:
+//! a panic is a crash (the input is saved to `OUT/crash-READER-N.bin`). Run
+//! it under an address-space limit (`scripts/fuzz.sh` does) so that an
+//! allocation driven by a declared size aborts the run; the input being
+//! read is always in `OUT/current-READER.bin` for that case.
+//!
+//! ```text
+//! cargo run --release --example fuzz_readers -- --seconds 60 --out fuzz-out [--reader ply] [--seed 1]
+//! cargo run --release --example fuzz_readers -- --replay fuzz-out/crash-gltf-0.bin --reader gltf
+//! ```
+//! One JSON line per reader on stdout: executions, Ok / Err counts, crashes,
+//! seconds.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use rand::RngExt;
+use splatkit::io::any::save;
+use splatkit::io::cameras::colmap;
+use splatkit::io::detect::FileFormat;
+use splatkit::model::rng;
+use splatkit::model::{Mesh, PointCloud, Scene};
+
+type Reader = fn(&[u8]) -> bool;
+
+/// The readers under test: name, the reader (true = Ok), and which seed
+/// files (by path suffix) feed it.
+fn readers() -> Vec<(&'static str, Reader, &'static [&'static str])> {
+    use splatkit::io::{cameras, gltf, mat, obj, off, ply, tnt, torch_pt};
+    vec![
+        ("ply", |b| ply::parse_ply("f", b).is_ok(), &[".ply"]),
+        (
+            "ply-gaussians",
+            |b| ply::gaussians::parse_gaussians("f", b).is_ok(),
+            &[".ply"],
+        ),
+        (
+            "ply-mesh",
+            |b| ply::mesh::parse_mesh("f", b).is_ok(),
+            &[".ply"],
+        ),
+        (
+            "ply-points",
+            |b| ply::points::parse_points("f", b).is_ok(),
+            &[".ply"],
+        ),
+        (
+            "ply-soup",
+            |b| ply::soup::parse_soup("f", b).is_ok(),
+            &[".ply"],
+        ),
+        ("obj", |b| obj::parse_obj("f", b).is_ok(), &[".obj"]),
+        ("off", |b| off::parse_off("f", b).is_ok(), &[".off"]),
+        (
+            "gltf",
+            |b| gltf::parse_gltf("f", b).is_ok(),
+            &[".glb", ".gltf"],
+        ),
+        (
+            "pt",
+            |b| torch_pt::parse_triangle_checkpoint("f", b).is_ok(),
+            &[".pt"],
+        ),
+        ("mat", |b| mat::parse_mat("f", b).is_ok(), &[".mat"]),
+        (
+            "npy",
+            |b| cameras::npz::parse_npy("f", b).is_ok(),
+            &[".npy"],
+        ),
+        (
+            "npz",
+            |b| {
+                cameras::npz::parse_neus_npz("f", b, None, &cameras::npz::NpzOptions::default())
+                    .is_ok()
+            },
+            &[".npz"],
+        ),
+        (
+            "colmap-bin",
+            |b| {
+                colmap::decode_cameras_bin("f", b).is_ok()
+                    | colmap::decode_images_bin("f", b).is_ok()
+                    | colmap::decode_points3d_bin("f", b).is_ok()
+            },
+            &[".bin"],
+        ),
+        (
+            "colmap-txt",
+            |b| {
+                let s = String::from_utf8_lossy(b);
+                colmap::decode_cameras_txt("f", &s).is_ok()
+                    | colmap::decode_images_txt("f", &s).is_ok()
+                    | colmap::decode_points3d_txt("f", &s).is_ok()
+            },
+            &["cameras.txt", "images.txt", "points3D.txt"],
+        ),
+        (
+            "gs-json",
+            |b| cameras::gs_json::parse_gs_json("f", b).is_ok(),
+            &["cameras.json"],
+        ),
+        (
+            "transforms-json",
+            |b| cameras::nerf_json::parse_transforms_json("f", b, Path::new(".")).is_ok(),
+            &["transforms.json"],
+        ),
+        ("tnt-log", |b| tnt::parse_log("f", b).is_ok(), &[".log"]),
+        (
+            "tnt-trans",
+            |b| tnt::parse_trans("f", b).is_ok(),
+            &["_trans.txt"],
+        ),
+        (
+            "tnt-crop",
+            |b| tnt::parse_crop_json("f", b).is_ok(),
+            &["_crop.json"],
+        ),
+    ]
+}
+
+fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            files_under(&p, out);
+        } else {
+            out.push(p);
+        }
+    }
+}
+
+/// Small valid files from splatkit's writers, into `dir`.
+fn write_generated_seeds(dir: &Path) {
+    std::fs::create_dir_all(dir).expect("seed folder");
+    let mesh = Mesh::new(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        vec![[0, 1, 2], [0, 2, 3], [0, 3, 1]],
+    );
+    for ext in ["ply", "obj", "off", "glb", "gltf"] {
+        let p = dir.join(format!("gen_mesh.{ext}"));
+        let f = FileFormat::from_extension(&p).expect("known extension");
+        save(&p, &Scene::Mesh(mesh.clone()), f).expect("write seed");
+    }
+    let (soup, _) = splatkit::geom::synthetic::demo_soup(1, 4);
+    save(
+        &dir.join("gen_soup.ply"),
+        &Scene::TriangleSoup(soup.clone()),
+        FileFormat::Ply,
+    )
+    .expect("write seed");
+    save(
+        &dir.join("gen_soup.pt"),
+        &Scene::TriangleSoup(soup),
+        FileFormat::TorchPt,
+    )
+    .expect("write seed");
+    let pts = PointCloud {
+        positions: vec![[0.0, 1.0, 2.0], [3.0, 4.0, 5.0]],
+        normals: Some(vec![[0.0, 0.0, 1.0]; 2]),
+        colors: Some(vec![[1, 2, 3]; 2]),
+        ..Default::default()
+    };
+    save(
+        &dir.join("gen_points.ply"),
+        &Scene::PointCloud(pts),
+        FileFormat::Ply,
+    )
+    .expect("write seed");
+    std::fs::write(
+        dir.join("gen.npy"),
+        splatkit::io::cameras::npz::encode_npy_f64(&[2, 3], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]),
+    )
+    .expect("write seed");
+    let cams: Vec<_> = (0..3)
+        .map(|i| {
+            splatkit::model::Camera::pinhole(
+                format!("im{i}.png"),
+                64,
+                48,
+                50.0,
+                50.0,
+                32.0,
+                24.0,
+                glam::DMat3::IDENTITY,
+                glam::DVec3::new(i as f64, 0.0, 3.0),
+            )
+        })
+        .collect();
+    splatkit::io::cameras::write_gs_json(&dir.join("cameras.json"), &cams).expect("write seed");
+    splatkit::io::cameras::write_transforms_json(&dir.join("transforms.json"), &cams)
+        .expect("write seed");
+    let model = colmap::ColmapModel::from_cameras(&cams).expect("colmap model");
+    let bin = dir.join("colmap_bin");
+    std::fs::create_dir_all(&bin).expect("seed folder");
+    model.write_binary(&bin).expect("write seed");
+    let txt = dir.join("colmap_txt");
+    std::fs::create_dir_all(&txt).expect("seed folder");
+    model.write_text(&txt).expect("write seed");
+    std::fs::write(
+        dir.join("scene_crop.json"),
+        r#"{"class_name":"SelectionPolygonVolume","orthogonal_axis":"Z","axis_max":1.0,"axis_min":-1.0,
+"bounding_polygon":[[0,0,0],[1,0,0],[1,1,0],[0,1,0]],"version_major":1,"version_minor":0}"#,
+    )
+    .expect("write seed");
+    std::fs::write(
+        dir.join("scene_trans.txt"),
+        "1 0 0 0.5\n0 1 0 0\n0 0 1 0\n0 0 0 1\n",
+    )
+    .expect("write seed");
+    std::fs::write(
+        dir.join("scene.log"),
+        "0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n1 1 2\n1 0 0 1\n0 1 0 0\n0 0 1 0\n0 0 0 1\n",
+    )
+    .expect("write seed");
+}
+
+/// Applies 1–4 random mutations to `b`.
+fn mutate(b: &mut Vec<u8>, r: &mut rng::Rng) {
+    let n = r.random_range(1..=4);
+    for _ in 0..n {
+        let len = b.len();
+        match r.random_range(0..9) {
+            0 if len > 0 => {
+                let i = r.random_range(0..len);
+                b[i] ^= 1 << r.random_range(0..8);
+            }
+            1 if len > 0 => {
+                let i = r.random_range(0..len);
+                b[i] = [0u8, 0xff, 0x7f, 0x80, b'-', b'9', b'\n'][r.random_range(0..7)];
+            }
+            2 if len >= 8 => {
+                let i = r.random_range(0..len - 7);
+                let v: u64 = [
+                    0,
+                    u32::MAX as u64,
+                    i32::MAX as u64,
+                    1 << 31,
+                    u64::MAX,
+                    len as u64,
+                ][r.random_range(0..6)];
+                let bytes = v.to_le_bytes();
+                let w = [4usize, 8][r.random_range(0..2)];
+                b[i..i + w].copy_from_slice(&bytes[..w]);
+            }
+            3 if len > 0 => {
+                let at = r.random_range(0..len);
+                b.truncate(at);
+            }
+            4 if len > 1 => {
+                let a = r.random_range(0..len);
+                let e = (a + r.random_range(1..=64)).min(len);
+                b.drain(a..e);
+            }
+            5 if len > 1 => {
+                let a = r.random_range(0..len);
+                let e = (a + r.random_range(1..=64)).min(len);
+                let chunk: Vec<u8> = b[a..e].to_vec();
+                let at = r.random_range(0..=b.len());
+                b.splice(at..at, chunk);
+            }
+            6 => {
+                let at = r.random_range(0..=len);
+                let k = r.random_range(1..=16);
+                let junk: Vec<u8> = (0..k).map(|_| r.random_range(0..=255u8)).collect();
+                b.splice(at..at, junk);
+            }
+            7 if len > 0 => {
+                // A number in text replaced by an extreme one.
+                let starts: Vec<usize> = (0..len)
+                    .filter(|&i| b[i].is_ascii_digit() && (i == 0 || !b[i - 1].is_ascii_digit()))
+                    .collect();
+                if let Some(&s) = starts.get(r.random_range(0..starts.len().max(1))) {
+                    let e = (s..len).find(|&i| !b[i].is_ascii_digit()).unwrap_or(len);
+                    let v: &[u8] = [
+                        &b"4294967295"[..],
+                        b"18446744073709551615",
+                        b"-1",
+                        b"nan",
+                        b"1e308",
+                        b"0",
+                        b"99999999999999999999999",
+                    ][r.random_range(0..7)];
+                    b.splice(s..e, v.iter().copied());
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let opt = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let seconds: f64 = opt("--seconds")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10.0);
+    let out = PathBuf::from(opt("--out").unwrap_or_else(|| "fuzz-out".into()));
+    let only = opt("--reader");
+    let seed: u64 = opt("--seed").and_then(|s| s.parse().ok()).unwrap_or(1);
+    // `--replay FILE --reader NAME`: run one input with panics shown.
+    if let (Some(file), Some(name)) = (opt("--replay"), only.as_deref()) {
+        let bytes = std::fs::read(&file).expect("read the replayed file");
+        let (_, read, _) = readers()
+            .into_iter()
+            .find(|(n, _, _)| *n == name)
+            .expect("a known --reader");
+        println!("{}", if read(&bytes) { "ok" } else { "err" });
+        return;
+    }
+    std::fs::create_dir_all(&out).expect("output folder");
+    let gen_dir = out.join("seeds");
+    write_generated_seeds(&gen_dir);
+    let mut files = Vec::new();
+    files_under(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata"),
+        &mut files,
+    );
+    files_under(&gen_dir, &mut files);
+    files.sort();
+    // Panics are the findings: keep their messages out of the output.
+    std::panic::set_hook(Box::new(|_| {}));
+    for (name, read, suffixes) in readers() {
+        if only.as_deref().is_some_and(|o| o != name) {
+            continue;
+        }
+        let seeds: Vec<Vec<u8>> = files
+            .iter()
+            .filter(|p| {
+                let s = p.to_string_lossy();
+                suffixes.iter().any(|x| s.ends_with(x))
+            })
+            .filter_map(|p| std::fs::read(p).ok())
+            .collect();
+        if seeds.is_empty() {
+            println!("{{\"reader\":\"{name}\",\"error\":\"no seed files\"}}");
+            continue;
+        }
+        let mut r = rng::stream(seed, name.len() as u64 * 7919 + seeds.len() as u64);
+        let current = out.join(format!("current-{name}.bin"));
+        let (mut execs, mut ok, mut crashes) = (0u64, 0u64, 0u64);
+        let t0 = Instant::now();
+        let budget = Duration::from_secs_f64(seconds);
+        while t0.elapsed() < budget {
+            let mut input = seeds[r.random_range(0..seeds.len())].clone();
+            mutate(&mut input, &mut r);
+            // Kept on disk so a run killed by the address-space limit leaves
+            // the input that did it.
+            std::fs::write(&current, &input).expect("write current input");
+            match std::panic::catch_unwind(|| read(&input)) {
+                Ok(true) => ok += 1,
+                Ok(false) => {}
+                Err(_) => {
+                    std::fs::write(out.join(format!("crash-{name}-{crashes}.bin")), &input)
+                        .expect("write crash");
+                    crashes += 1;
+                }
+            }
+            execs += 1;
+        }
+        let _ = std::fs::remove_file(&current);
+        println!(
+            "{{\"reader\":\"{name}\",\"seeds\":{},\"executions\":{execs},\"ok\":{ok},\"err\":{},\"crashes\":{crashes},\"seconds\":{:.1}}}",
+            seeds.len(),
+            execs - ok - crashes,
+            t0.elapsed().as_secs_f64()
+        );
+    }
+}
