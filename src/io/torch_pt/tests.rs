@@ -952,14 +952,10 @@ fn read_from_path() {
     assert!(e.to_string().contains("missing.pt"), "{e}");
 }
 
-/// A checkpoint re-zipped with deflate compression (not what torch writes,
-/// but what an archiver may produce) is inflated and read.
-#[test]
-fn deflated_records_are_inflated() {
-    let mut rng = Pcg64::seed_from_u64(14);
-    let soup = random_soup(&mut rng, 12, 2);
-    let stored = to_bytes(&soup);
-    let mut src = ::zip::ZipArchive::new(std::io::Cursor::new(&stored[..])).unwrap();
+/// `stored` (a checkpoint) re-zipped with every record deflated, after
+/// `edit(name, data)` has had a chance to change each record.
+fn repack_deflated(stored: &[u8], edit: impl Fn(&str, &mut Vec<u8>)) -> Vec<u8> {
+    let mut src = ::zip::ZipArchive::new(std::io::Cursor::new(stored)).unwrap();
     let mut out = std::io::Cursor::new(Vec::new());
     {
         let mut w = ::zip::ZipWriter::new(&mut out);
@@ -970,12 +966,23 @@ fn deflated_records_are_inflated() {
             let name = f.name().unwrap().to_string();
             let mut data = Vec::new();
             std::io::Read::read_to_end(&mut f, &mut data).unwrap();
+            edit(&name, &mut data);
             w.start_file(name, opts).unwrap();
             std::io::Write::write_all(&mut w, &data).unwrap();
         }
         w.finish().unwrap();
     }
-    let deflated = out.into_inner();
+    out.into_inner()
+}
+
+/// A checkpoint re-zipped with deflate compression (not what torch writes,
+/// but what an archiver may produce) is inflated and read.
+#[test]
+fn deflated_records_are_inflated() {
+    let mut rng = Pcg64::seed_from_u64(14);
+    let soup = random_soup(&mut rng, 12, 2);
+    let stored = to_bytes(&soup);
+    let deflated = repack_deflated(&stored, |_, _| {});
     let mut za = ::zip::ZipArchive::new(std::io::Cursor::new(&deflated[..])).unwrap();
     assert_eq!(
         za.by_index_raw(0).unwrap().compression(),
@@ -996,26 +1003,11 @@ fn oversized_deflated_records_are_refused_before_inflating() {
     let mut rng = Pcg64::seed_from_u64(16);
     let soup = random_soup(&mut rng, 12, 2);
     let stored = to_bytes(&soup);
-    let mut src = ::zip::ZipArchive::new(std::io::Cursor::new(&stored[..])).unwrap();
-    let mut out = std::io::Cursor::new(Vec::new());
-    {
-        let mut w = ::zip::ZipWriter::new(&mut out);
-        let opts = ::zip::write::SimpleFileOptions::default()
-            .compression_method(::zip::CompressionMethod::Deflated);
-        for i in 0..src.len() {
-            let mut f = src.by_index(i).unwrap();
-            let name = f.name().unwrap().to_string();
-            let mut data = Vec::new();
-            std::io::Read::read_to_end(&mut f, &mut data).unwrap();
-            if name.ends_with("/data/0") {
-                data.resize(data.len() + (20 << 20), 0);
-            }
-            w.start_file(name, opts).unwrap();
-            std::io::Write::write_all(&mut w, &data).unwrap();
+    let bomb = repack_deflated(&stored, |name, data| {
+        if name.ends_with("/data/0") {
+            data.resize(data.len() + (20 << 20), 0);
         }
-        w.finish().unwrap();
-    }
-    let bomb = out.into_inner();
+    });
     assert!(
         bomb.len() < 200_000,
         "the padded archive stays small: {}",
