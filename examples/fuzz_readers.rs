@@ -18,8 +18,8 @@
 //! cargo run --release --example fuzz_readers -- --seconds 60 --out fuzz-out [--reader ply] [--seed 1]
 //! cargo run --release --example fuzz_readers -- --replay fuzz-out/crash-gltf-0.bin --reader gltf
 //! ```
-//! One JSON line per reader on stdout: executions, Ok / Err counts, crashes,
-//! seconds.
+//! `--seconds` is CPU time per reader. One JSON line per reader on stdout:
+//! executions, Ok / Err counts, crashes, CPU and wall seconds.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -33,30 +33,23 @@ use splatkit::model::{Mesh, PointCloud, Scene};
 
 type Reader = fn(&[u8]) -> bool;
 
-/// The readers under test: name, the reader (true = Ok), and which seed
-/// files (by path suffix) feed it.
+/// The readers under test, one entry per reader the issue names: its name,
+/// the reader (true = Ok) and which seed files (by path suffix) feed it.
+/// Where one reader has several entry points (the PLY element kinds, COLMAP
+/// binary and text, the `.npy` inside a `.npz`), every input goes through
+/// all of them.
 fn readers() -> Vec<(&'static str, Reader, &'static [&'static str])> {
-    use splatkit::io::{cameras, gltf, mat, obj, off, ply, tnt, torch_pt};
+    use splatkit::io::{cameras, gltf, image, mat, obj, off, ply, tnt, torch_pt};
     vec![
-        ("ply", |b| ply::parse_ply("f", b).is_ok(), &[".ply"]),
         (
-            "ply-gaussians",
-            |b| ply::gaussians::parse_gaussians("f", b).is_ok(),
-            &[".ply"],
-        ),
-        (
-            "ply-mesh",
-            |b| ply::mesh::parse_mesh("f", b).is_ok(),
-            &[".ply"],
-        ),
-        (
-            "ply-points",
-            |b| ply::points::parse_points("f", b).is_ok(),
-            &[".ply"],
-        ),
-        (
-            "ply-soup",
-            |b| ply::soup::parse_soup("f", b).is_ok(),
+            "ply",
+            |b| {
+                ply::parse_ply("f", b).is_ok()
+                    | ply::gaussians::parse_gaussians("f", b).is_ok()
+                    | ply::mesh::parse_mesh("f", b).is_ok()
+                    | ply::points::parse_points("f", b).is_ok()
+                    | ply::soup::parse_soup("f", b).is_ok()
+            },
             &[".ply"],
         ),
         ("obj", |b| obj::parse_obj("f", b).is_ok(), &[".obj"]),
@@ -73,58 +66,47 @@ fn readers() -> Vec<(&'static str, Reader, &'static [&'static str])> {
         ),
         ("mat", |b| mat::parse_mat("f", b).is_ok(), &[".mat"]),
         (
-            "npy",
-            |b| cameras::npz::parse_npy("f", b).is_ok(),
-            &[".npy"],
-        ),
-        (
             "npz",
             |b| {
-                cameras::npz::parse_neus_npz("f", b, None, &cameras::npz::NpzOptions::default())
+                cameras::npz::parse_npy("f", b).is_ok()
+                    | cameras::npz::parse_neus_npz(
+                        "f",
+                        b,
+                        None,
+                        &cameras::npz::NpzOptions::default(),
+                    )
                     .is_ok()
             },
-            &[".npz"],
+            &[".npy", ".npz"],
         ),
         (
-            "colmap-bin",
+            "colmap",
             |b| {
+                let s = String::from_utf8_lossy(b);
                 colmap::decode_cameras_bin("f", b).is_ok()
                     | colmap::decode_images_bin("f", b).is_ok()
                     | colmap::decode_points3d_bin("f", b).is_ok()
-            },
-            &[".bin"],
-        ),
-        (
-            "colmap-txt",
-            |b| {
-                let s = String::from_utf8_lossy(b);
-                colmap::decode_cameras_txt("f", &s).is_ok()
+                    | colmap::decode_cameras_txt("f", &s).is_ok()
                     | colmap::decode_images_txt("f", &s).is_ok()
                     | colmap::decode_points3d_txt("f", &s).is_ok()
             },
-            &["cameras.txt", "images.txt", "points3D.txt"],
+            &[".bin", "cameras.txt", "images.txt", "points3D.txt"],
         ),
         (
-            "gs-json",
-            |b| cameras::gs_json::parse_gs_json("f", b).is_ok(),
-            &["cameras.json"],
+            "json-cameras",
+            |b| {
+                cameras::gs_json::parse_gs_json("f", b).is_ok()
+                    | cameras::nerf_json::parse_transforms_json("f", b, Path::new(".")).is_ok()
+                    | tnt::parse_crop_json("f", b).is_ok()
+            },
+            &["cameras.json", "transforms.json", "_crop.json"],
         ),
         (
-            "transforms-json",
-            |b| cameras::nerf_json::parse_transforms_json("f", b, Path::new(".")).is_ok(),
-            &["transforms.json"],
+            "tnt",
+            |b| tnt::parse_log("f", b).is_ok() | tnt::parse_trans("f", b).is_ok(),
+            &[".log", "_trans.txt"],
         ),
-        ("tnt-log", |b| tnt::parse_log("f", b).is_ok(), &[".log"]),
-        (
-            "tnt-trans",
-            |b| tnt::parse_trans("f", b).is_ok(),
-            &["_trans.txt"],
-        ),
-        (
-            "tnt-crop",
-            |b| tnt::parse_crop_json("f", b).is_ok(),
-            &["_crop.json"],
-        ),
+        ("png-mask", |b| image::parse_mask("f", b).is_ok(), &[".png"]),
     ]
 }
 
@@ -214,6 +196,18 @@ fn write_generated_seeds(dir: &Path) {
     let txt = dir.join("colmap_txt");
     std::fs::create_dir_all(&txt).expect("seed folder");
     model.write_text(&txt).expect("write seed");
+    for (i, (ch, w, h)) in [(1usize, 5usize, 3usize), (3, 4, 4), (4, 2, 6)]
+        .into_iter()
+        .enumerate()
+    {
+        let data: Vec<u8> = (0..ch * w * h).map(|k| (k * 37 % 256) as u8).collect();
+        let mut f = std::fs::File::create(dir.join(format!("mask{i}.png"))).expect("seed file");
+        splatkit::io::image::write_png8(&mut f, "seed", w, h, ch, &data).expect("write seed");
+    }
+    let mut f = std::fs::File::create(dir.join("depth16.png")).expect("seed file");
+    splatkit::io::image::write_png16(&mut f, "seed", 3, 2, &[0, 1, 256, 65535, 7, 9])
+        .expect("write seed");
+    drop(f);
     std::fs::write(
         dir.join("scene_crop.json"),
         r#"{"class_name":"SelectionPolygonVolume","orthogonal_axis":"Z","axis_max":1.0,"axis_min":-1.0,
@@ -342,7 +336,10 @@ fn main() {
     // Panics are the findings: keep their messages out of the output.
     std::panic::set_hook(Box::new(|_| {}));
     for (name, read, suffixes) in readers() {
-        if only.as_deref().is_some_and(|o| o != name) {
+        if only
+            .as_deref()
+            .is_some_and(|o| !o.split(',').any(|x| x == name))
+        {
             continue;
         }
         let seeds: Vec<Vec<u8>> = files
@@ -361,8 +358,18 @@ fn main() {
         let current = out.join(format!("current-{name}.bin"));
         let (mut execs, mut ok, mut crashes) = (0u64, 0u64, 0u64);
         let t0 = Instant::now();
-        let budget = Duration::from_secs_f64(seconds);
-        while t0.elapsed() < budget {
+        let cpu0 = cpu_seconds();
+        let mut last_report = Instant::now();
+        // The budget is CPU time of this process, so a run sharing the
+        // machine still gives each reader its full share.
+        while execs % 256 != 0 || cpu_seconds() - cpu0 < seconds {
+            if last_report.elapsed() > Duration::from_secs(60) {
+                eprintln!(
+                    "{name}: {execs} executions, {crashes} crashes, {:.0} s CPU",
+                    cpu_seconds() - cpu0
+                );
+                last_report = Instant::now();
+            }
             let mut input = seeds[r.random_range(0..seeds.len())].clone();
             mutate(&mut input, &mut r);
             // Kept on disk so a run killed by the address-space limit leaves
@@ -381,10 +388,22 @@ fn main() {
         }
         let _ = std::fs::remove_file(&current);
         println!(
-            "{{\"reader\":\"{name}\",\"seeds\":{},\"executions\":{execs},\"ok\":{ok},\"err\":{},\"crashes\":{crashes},\"seconds\":{:.1}}}",
+            "{{\"reader\":\"{name}\",\"seeds\":{},\"executions\":{execs},\"ok\":{ok},\"err\":{},\"crashes\":{crashes},\"cpu_seconds\":{:.1},\"wall_seconds\":{:.1}}}",
             seeds.len(),
             execs - ok - crashes,
+            cpu_seconds() - cpu0,
             t0.elapsed().as_secs_f64()
         );
     }
+}
+
+/// CPU time (user + system) of this process so far, in seconds, from
+/// `/proc/self/stat` (Linux; the fuzz script is Linux-only anyway).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").expect("read /proc/self/stat");
+    // Fields after the `(comm)`: state is field 3; utime and stime are 14, 15.
+    let rest = &stat[stat.rfind(')').expect("stat format") + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f[11].parse::<f64>().unwrap_or(0.0) + f[12].parse::<f64>().unwrap_or(0.0);
+    ticks / 100.0
 }

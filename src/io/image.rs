@@ -4,6 +4,7 @@
 use std::io::Write;
 use std::path::Path;
 
+use crate::io::cameras::MAX_PIXELS;
 use crate::model::Mask;
 use crate::{Error, Result};
 
@@ -67,19 +68,52 @@ pub struct RgbImage {
 /// its frame info and samples. Errors name the file.
 pub fn decode_png(path: &Path, t: png::Transformations) -> Result<(png::OutputInfo, Vec<u8>)> {
     let name = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| Error::io(&name, e))?;
-    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
+    let bytes = std::fs::read(path).map_err(|e| Error::io(&name, e))?;
+    decode_png_bytes(&name, &bytes, t)
+}
+
+/// [`decode_png`] over bytes already in memory; `name` is used in errors.
+/// The frame buffer is allocated only after the header's size passed the
+/// png crate's default memory limit (64 MiB of decoded samples), so a
+/// few-byte header declaring a huge image is an error, not an allocation.
+pub fn decode_png_bytes(
+    name: &str,
+    bytes: &[u8],
+    t: png::Transformations,
+) -> Result<(png::OutputInfo, Vec<u8>)> {
+    let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
     dec.set_transformations(t);
     let mut reader = dec
         .read_info()
-        .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
+        .map_err(|e| Error::format(name, format!("PNG: {e}")))?;
+    let info = reader.info();
+    let (w, h) = (info.width as u64, info.height as u64);
+    if w * h > MAX_PIXELS {
+        return Err(Error::format(
+            name,
+            format!("PNG header declares {w}x{h} pixels, more than the {MAX_PIXELS} (2^28) limit"),
+        ));
+    }
+    // Deflate expands at most ~1032:1, so image data larger than about a
+    // thousand times the file cannot be in it: refuse before allocating.
+    let raw = info.raw_bytes() as u64;
+    if raw > 1100 * bytes.len() as u64 + (1 << 16) {
+        return Err(Error::format(
+            name,
+            format!(
+                "PNG header declares {w}x{h} pixels ({raw} bytes of image data), more than \
+                 a {} byte file can hold",
+                bytes.len()
+            ),
+        ));
+    }
     let size = reader
         .output_buffer_size()
-        .ok_or_else(|| Error::format(&name, "PNG too large"))?;
+        .ok_or_else(|| Error::format(name, "PNG too large"))?;
     let mut buf = vec![0u8; size];
     let info = reader
         .next_frame(&mut buf)
-        .map_err(|e| Error::format(&name, format!("PNG: {e}")))?;
+        .map_err(|e| Error::format(name, format!("PNG: {e}")))?;
     Ok((info, buf))
 }
 
@@ -122,7 +156,14 @@ pub fn to_u8(v: f32) -> u8 {
 /// nonzero, i.e. the blue byte of an RGB(A) PNG, the grey byte otherwise
 /// (as the 2DGS DTU culling reads masks).
 pub fn read_mask(path: &Path) -> Result<Mask> {
-    let (info, buf) = decode_png(path, png::Transformations::normalize_to_color8())?;
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| Error::io(&name, e))?;
+    parse_mask(&name, &bytes)
+}
+
+/// [`read_mask`] over bytes already in memory; `name` is used in errors.
+pub fn parse_mask(name: &str, bytes: &[u8]) -> Result<Mask> {
+    let (info, buf) = decode_png_bytes(name, bytes, png::Transformations::normalize_to_color8())?;
     let (w, h) = (info.width as usize, info.height as usize);
     let channels = info.color_type.samples();
     // BGR channel 0 is blue: byte 2 of RGB/RGBA, the grey byte otherwise.
@@ -167,5 +208,61 @@ mod tests {
         for (px, v) in g.pixels.iter().zip(&d16) {
             assert_eq!((px[0] * 65535.0).round() as u16, *v);
         }
+    }
+    /// A PNG of `w`×`h` grey pixels holding only a signature, an IHDR, an
+    /// empty IDAT and an IEND chunk (CRCs computed here, bitwise CRC-32 as PNG defines it).
+    fn header_only_png(w: u32, h: u32) -> Vec<u8> {
+        fn crc32(bytes: &[u8]) -> u32 {
+            let mut c = !0u32;
+            for &b in bytes {
+                c ^= b as u32;
+                for _ in 0..8 {
+                    c = if c & 1 != 0 {
+                        0xEDB8_8320 ^ (c >> 1)
+                    } else {
+                        c >> 1
+                    };
+                }
+            }
+            !c
+        }
+        let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+        let mut chunk = |kind: &[u8], data: &[u8]| {
+            out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+            let mut body = kind.to_vec();
+            body.extend_from_slice(data);
+            out.extend_from_slice(&body);
+            out.extend_from_slice(&crc32(&body).to_be_bytes());
+        };
+        let mut ihdr = Vec::new();
+        ihdr.extend_from_slice(&w.to_be_bytes());
+        ihdr.extend_from_slice(&h.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 0, 0, 0, 0]);
+        chunk(b"IHDR", &ihdr);
+        // An empty zlib stream: image data too short for any size > 0.
+        chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]);
+        chunk(b"IEND", &[]);
+        out
+    }
+
+    /// A few dozen bytes declaring a huge image are refused from the header,
+    /// before the frame buffer is allocated: beyond 2^28 pixels, or more
+    /// image data than deflate could pack into the file.
+    #[test]
+    fn huge_declared_sizes_are_refused_before_allocating() {
+        let e = parse_mask("m.png", &header_only_png(100_000, 100_000))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("m.png") && e.contains("2^28"), "{e}");
+        let e = parse_mask("m.png", &header_only_png(10_000, 10_000))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("byte file can hold"), "{e}");
+        // A small header-only image passes the size checks and fails on the
+        // missing data instead.
+        let e = parse_mask("m.png", &header_only_png(4, 4))
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains("can hold") && !e.contains("2^28"), "{e}");
     }
 }
