@@ -46,4 +46,21 @@ impl Error {
     pub fn invalid(msg: impl Into<String>) -> Self {
         Error::Invalid(msg.into())
     }
+
+    /// The same error with the role of its file in front of the path
+    /// ("prediction mesh.ply: ..."), for commands that read several files
+    /// of one kind; an [`Error::Invalid`] gets "role: " in front.
+    pub fn in_role(self, role: &str) -> Self {
+        match self {
+            Error::Io { path, source } => Error::Io {
+                path: format!("{role} {path}"),
+                source,
+            },
+            Error::Format { path, msg } => Error::Format {
+                path: format!("{role} {path}"),
+                msg,
+            },
+            Error::Invalid(msg) => Error::Invalid(format!("{role}: {msg}")),
+        }
+    }
 }

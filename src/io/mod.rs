@@ -16,4 +16,4 @@ pub mod source;
 pub mod tnt;
 pub mod torch_pt;
 
-pub use source::{Input, read_input, write_output};
+pub use source::{Input, StagedDir, read_input, write_output};

@@ -1,11 +1,11 @@
 //! Reading inputs (files by memory map, `-` from stdin) and writing outputs
 //! atomically (temporary file in the destination folder, renamed at the end;
-//! `-` writes to stdout).
+//! `-` writes to stdout; folder outputs through [`StagedDir`]).
 
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
 use std::ops::Deref;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::{Error, Result};
 
@@ -153,4 +153,176 @@ const OUTPUT: &str = "<output>";
 /// placeholder name with the real output path.
 pub fn werr(e: std::io::Error) -> Error {
     Error::io(OUTPUT, e)
+}
+
+/// A folder output written all or nothing: files go into a new sibling
+/// folder `.NAME.splatkit-PID-K` next to the target, and
+/// [`StagedDir::commit`] moves them in only after the command succeeded. A
+/// run that fails (or panics) before the commit leaves the target as it
+/// was; the staging folder is removed when the `StagedDir` is dropped.
+///
+/// Commit renames the staging folder to the target when the target does
+/// not exist; otherwise it renames each staged file over its namesake in
+/// the target (files of the target that this run did not write are kept,
+/// as a plain overwrite would keep them). Each rename is atomic; the set is
+/// not, but it only starts once every file was written.
+pub struct StagedDir {
+    target: PathBuf,
+    staging: PathBuf,
+    committed: bool,
+}
+
+impl StagedDir {
+    /// Starts a folder output at `target`. Fails now, before any work,
+    /// when `target` exists and is not a folder or when its parent cannot
+    /// be created or written.
+    pub fn new(target: &Path) -> Result<Self> {
+        let name = target.display().to_string();
+        if target.exists() && !target.is_dir() {
+            return Err(Error::format(&name, "exists and is not a folder"));
+        }
+        let parent = match target.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        std::fs::create_dir_all(&parent).map_err(|e| Error::io(parent.display(), e))?;
+        let base = target
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "output".into());
+        for k in 0u32.. {
+            let staging = parent.join(format!(".{base}.splatkit-{}-{k}", std::process::id()));
+            match std::fs::create_dir(&staging) {
+                Ok(()) => {
+                    return Ok(StagedDir {
+                        target: target.to_path_buf(),
+                        staging,
+                        committed: false,
+                    });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(e) => return Err(Error::io(parent.display(), e)),
+            }
+        }
+        unreachable!("a free staging name exists")
+    }
+
+    /// The folder to write into now.
+    pub fn path(&self) -> &Path {
+        &self.staging
+    }
+
+    /// Moves the written files into the target (see the type's doc).
+    pub fn commit(mut self) -> Result<()> {
+        let name = self.target.display().to_string();
+        if !self.target.exists() {
+            std::fs::rename(&self.staging, &self.target).map_err(|e| Error::io(&name, e))?;
+        } else {
+            merge_into(&self.staging, &self.target)?;
+            std::fs::remove_dir_all(&self.staging)
+                .map_err(|e| Error::io(self.staging.display(), e))?;
+        }
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for StagedDir {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.staging);
+        }
+    }
+}
+
+/// Renames every entry of `from` into `to`, merging sub-folders that exist
+/// in both.
+fn merge_into(from: &Path, to: &Path) -> Result<()> {
+    let entries = std::fs::read_dir(from).map_err(|e| Error::io(from.display(), e))?;
+    for entry in entries {
+        let entry = entry.map_err(|e| Error::io(from.display(), e))?;
+        let (src, dst) = (entry.path(), to.join(entry.file_name()));
+        if src.is_dir() && dst.is_dir() {
+            merge_into(&src, &dst)?;
+        } else {
+            std::fs::rename(&src, &dst).map_err(|e| Error::io(dst.display(), e))?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// A new folder appears only on commit; a dropped stage leaves nothing.
+    #[test]
+    fn staged_dir_new_target() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("out");
+        {
+            let st = StagedDir::new(&target).unwrap();
+            std::fs::write(st.path().join("a.png"), b"1").unwrap();
+        }
+        assert_eq!(names(root.path()), Vec::<String>::new());
+        let st = StagedDir::new(&target).unwrap();
+        std::fs::write(st.path().join("a.png"), b"1").unwrap();
+        st.commit().unwrap();
+        assert_eq!(names(root.path()), ["out"]);
+        assert_eq!(names(&target), ["a.png"]);
+    }
+
+    /// Over an existing folder: nothing changes until commit; commit
+    /// replaces the files written, keeps the others, and leaves no staging
+    /// folder behind.
+    #[test]
+    fn staged_dir_existing_target() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("out");
+        std::fs::create_dir_all(target.join("sub")).unwrap();
+        std::fs::write(target.join("a.png"), b"old").unwrap();
+        std::fs::write(target.join("b.png"), b"keep").unwrap();
+        std::fs::write(target.join("sub/x"), b"old").unwrap();
+        let write = |st: &StagedDir| {
+            std::fs::write(st.path().join("a.png"), b"new").unwrap();
+            std::fs::write(st.path().join("c.png"), b"new").unwrap();
+            std::fs::create_dir(st.path().join("sub")).unwrap();
+            std::fs::write(st.path().join("sub/x"), b"new").unwrap();
+        };
+        {
+            let st = StagedDir::new(&target).unwrap();
+            write(&st);
+        }
+        assert_eq!(std::fs::read(target.join("a.png")).unwrap(), b"old");
+        assert_eq!(names(&target), ["a.png", "b.png", "sub"]);
+        assert_eq!(names(root.path()), ["out"]);
+        let st = StagedDir::new(&target).unwrap();
+        write(&st);
+        st.commit().unwrap();
+        assert_eq!(names(&target), ["a.png", "b.png", "c.png", "sub"]);
+        assert_eq!(std::fs::read(target.join("a.png")).unwrap(), b"new");
+        assert_eq!(std::fs::read(target.join("b.png")).unwrap(), b"keep");
+        assert_eq!(std::fs::read(target.join("sub/x")).unwrap(), b"new");
+        assert_eq!(names(root.path()), ["out"]);
+    }
+
+    /// A target that is a file is refused before anything is staged.
+    #[test]
+    fn staged_dir_refuses_a_file_target() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("out");
+        std::fs::write(&target, b"x").unwrap();
+        let e = StagedDir::new(&target).err().unwrap().to_string();
+        assert!(e.contains("not a folder"), "{e}");
+        assert_eq!(names(root.path()), ["out"]);
+    }
 }

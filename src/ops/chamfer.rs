@@ -15,13 +15,14 @@ use glam::DMat4;
 use rayon::prelude::*;
 use serde_json::json;
 
-use crate::cli::{Common, positive_f64, shown, usage};
+use crate::cli::{Common, check_output_file, positive_f64, shown, usage};
 use crate::eval::chamfer::{
     Cloud, GenericParams, SampleMode, chamfer_generic, drop_non_finite, f64_points, mesh_cloud,
 };
 use crate::eval::cull::{CullView, DILATION_RADIUS, dilate_disk};
 use crate::eval::dtu::{DtuParams, DtuPrediction, DtuReport, evaluate_dtu, vis_color};
 use crate::geom::sample::dtu_sample_estimate;
+use crate::io::StagedDir;
 use crate::io::any::{load_kinds, load_mesh, load_points};
 use crate::io::cameras::npz::{NpzOptions, read_neus_cameras};
 use crate::io::cameras::validate_cameras;
@@ -57,7 +58,9 @@ fn check_samples(side: &str, file: &Path, estimate: f64, max: u64, how: &str) ->
 /// "ground truth") names it in errors, and a mesh that would give more than
 /// `max_samples` points is refused before sampling.
 pub fn load_cloud(path: &Path, p: &GenericParams, side: &str, max_samples: u64) -> Result<Cloud> {
-    match load_kinds(path, "chamfer", &[SceneKind::Mesh, SceneKind::PointCloud])? {
+    let scene = load_kinds(path, "chamfer", &[SceneKind::Mesh, SceneKind::PointCloud])
+        .map_err(|e| e.in_role(side))?;
+    match scene {
         Scene::PointCloud(pc) => Ok(Cloud {
             points: f64_points(&pc.positions),
             normals: pc.normals.as_ref().map(|n| f64_points(n)),
@@ -292,7 +295,7 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         )?;
         (pc.points, Vec::new(), None)
     } else {
-        let m = load_mesh(f.pred, "chamfer")?;
+        let m = load_mesh(f.pred, "chamfer").map_err(|e| e.in_role("prediction"))?;
         let verts = f64_points(&m.vertices);
         check_samples(
             "prediction",
@@ -312,12 +315,12 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
     };
     if vertices.is_empty() {
         bail!(
-            "{}: the prediction has no points to evaluate",
+            "prediction {}: has no points to evaluate",
             shown(f.pred, false)
         );
     }
     let stl_path = ds.stl_path(f.scan);
-    let stl = load_points(&stl_path, "chamfer")?;
+    let stl = load_points(&stl_path, "chamfer").map_err(|e| e.in_role("ground truth"))?;
     if stl.is_empty() {
         bail!("ground truth {}: holds no points", stl_path.display());
     }
@@ -425,6 +428,9 @@ fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
         seed: args.seed,
         ..DtuParams::default()
     };
+    // The visualisation folder is staged now (a bad path fails before the
+    // evaluation) and moved into place only after it is complete.
+    let vis = args.vis_dir.as_deref().map(StagedDir::new).transpose()?;
     let run = dtu_from_files(
         &DtuFiles {
             pred: pred_path,
@@ -437,8 +443,9 @@ fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
         &params,
     )?;
     let report = &run.report;
-    if let Some(dir) = &args.vis_dir {
-        write_dtu_vis(dir, scan, report, &run.stl, &params)?;
+    if let Some(st) = vis {
+        write_dtu_vis(st.path(), scan, report, &run.stl, &params)?;
+        st.commit()?;
     }
     args.common.say(format!(
         "dtu scan {scan}: mean_d2s {} mean_s2d {} overall {}",
@@ -461,7 +468,6 @@ fn write_dtu_vis(
     stl: &[[f64; 3]],
     p: &DtuParams,
 ) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
     let cloud = |pts: &[[f64; 3]], d: &[f64]| PointCloud {
         positions: pts.iter().map(|q| q.map(|c| c as f32)).collect(),
         normals: None,
@@ -511,9 +517,13 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
     let tau = match args.tau.as_slice() {
         [] => tnt_threshold(scene)
             .with_context(|| format!("no published threshold for scene '{scene}': give --tau"))?,
-        [t] if *t > 0.0 => *t,
-        _ => bail!("--protocol tnt takes one positive --tau"),
+        [t] if *t > 0.0 && t.is_finite() => *t,
+        _ => return Err(usage("--protocol tnt takes one positive --tau")),
     };
+    if let Some(plot) = &args.plot {
+        check_output_file(plot, "--plot")?;
+    }
+    let vis = args.vis_dir.as_deref().map(StagedDir::new).transpose()?;
     let file = |suffix: &str| gt_dir.join(format!("{scene}{suffix}"));
     let missing: Vec<String> = [".ply", ".json", "_trans.txt", "_COLMAP_SfM.log"]
         .iter()
@@ -530,7 +540,7 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
     // The official toolbox reads a mesh PLY's vertices (`read_point_cloud`);
     // 2DGS's script adds the face centroids (`--with-centroids`).
     let rec_points = if args.with_centroids {
-        let m = load_mesh(pred_path, "chamfer")?;
+        let m = load_mesh(pred_path, "chamfer").map_err(|e| e.in_role("prediction"))?;
         vertices_and_face_centroids(&f64_points(&m.vertices), &m.faces)?
     } else {
         load_cloud(
@@ -541,7 +551,7 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
         )?
         .points
     };
-    let gt = load_points(&file(".ply"), "chamfer")?;
+    let gt = load_points(&file(".ply"), "chamfer").map_err(|e| e.in_role("ground truth"))?;
     let gt_points = f64_points(&gt.positions);
     let rec_traj: Vec<_> = crate::io::tnt::read_log(traj)?
         .iter()
@@ -572,8 +582,8 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
             crate::io::image::write_png8(w, &name, img.width, img.height, 3, &img.rgb)
         })?;
     }
-    if let Some(dir) = &args.vis_dir {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
+    if let Some(st) = vis {
+        let dir = st.path();
         for (what, pts, d) in [
             (
                 "precision",
@@ -596,6 +606,7 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
                 write_points(w, &pc, Format::BinaryLittleEndian)
             })?;
         }
+        st.commit()?;
     }
     args.common.say(format!(
         "tnt {scene}: precision {:.4} recall {:.4} f-score {:.4} (tau {tau})",

@@ -20,8 +20,9 @@ use splatkit_render::loss::{psnr, ssim};
 use splatkit_render::{mesh as zbuffer, triangle};
 
 use crate::cli::orbit::OrbitArgs;
-use crate::cli::{Common, nonneg_f64, positive_f64, shown};
+use crate::cli::{Common, nonneg_f64, positive_f64, shown, usage};
 use crate::geom::orbit::orbit_rings;
+use crate::io::StagedDir;
 use crate::io::cameras::npz::encode_npy_f32;
 use crate::io::cameras::read_cameras;
 use crate::io::image::{read_png_rgb, to_u8, write_png8, write_png16};
@@ -304,24 +305,31 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     args.common.init()?;
     for item in &args.outputs {
         if !["rgb", "depth", "alpha", "normal"].contains(&item.as_str()) {
-            bail!("unknown --outputs item {item:?} (rgb, depth, alpha, normal)");
+            return Err(usage(format!(
+                "unknown --outputs item {item:?} (rgb, depth, alpha, normal)"
+            )));
         }
     }
     if args.background.len() != 3 || args.background.iter().any(|v| !v.is_finite()) {
-        bail!("--background takes three numbers r,g,b");
+        return Err(usage("--background takes three finite numbers r,g,b"));
     }
     if !(args.depth_scale > 0.0 && args.depth_scale.is_finite()) {
-        bail!("--depth-scale must be positive");
+        return Err(usage("--depth-scale must be positive"));
     }
+    // The orbit flags are checked before the scene is read.
+    let orbit = match &args.cameras {
+        Some(_) => None,
+        None => Some(args.orbit.spec(args.orbit.orbit.unwrap_or(8))?),
+    };
     let t0 = std::time::Instant::now();
     let scene = load_scene(&args.scene)
         .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
-    let cams = match &args.cameras {
-        Some(p) => read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?,
-        None => orbit_rings(
-            &scene.points(),
-            &args.orbit.spec(args.orbit.orbit.unwrap_or(8))?,
-        )?,
+    let cams = match (&args.cameras, &orbit) {
+        (Some(p), _) => {
+            read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?
+        }
+        (None, Some(spec)) => orbit_rings(&scene.points(), spec)?,
+        (None, None) => unreachable!("an orbit is made when no camera file is given"),
     };
     for c in &cams {
         c.require_pinhole()
@@ -339,11 +347,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 .transpose()
         })
         .collect::<anyhow::Result<_>>()?;
-    std::fs::create_dir_all(&args.output)
+    // Files go to a staging folder moved into place only when every view
+    // was rendered and compared, so a failed run leaves the output as it was.
+    let staged = StagedDir::new(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
+    let out_dir = staged.path();
     if args.cameras.is_none() {
         // keep the made-up views so other scenes can be rendered from them
-        crate::io::cameras::write_gs_json(&args.output.join("cameras.json"), &cams)?;
+        crate::io::cameras::write_gs_json(&out_dir.join("cameras.json"), &cams)?;
     }
     let s = RasterSettings {
         background: [args.background[0], args.background[1], args.background[2]],
@@ -357,7 +368,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let st = stem(cam, i);
         let files = write_view(
             &out,
-            &args.output,
+            out_dir,
             &st,
             &args.outputs,
             args.depth,
@@ -395,6 +406,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         pb.inc(1);
     }
     pb.finish_and_clear();
+    staged.commit()?;
     let n = cams.len().max(1) as f64;
     let mut report = json!({
         "scene": shown(&args.scene, false),
