@@ -4,58 +4,17 @@
 //! 1 (bad data) or 2 (bad usage), a message naming the file or flag and the
 //! problem, no panic text, and no output created or replaced.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Output;
+
+use common::{fails, run};
 
 use glam::{DMat3, DVec3};
 use splatkit::io::any::save;
 use splatkit::io::cameras::write_gs_json;
 use splatkit::io::detect::FileFormat;
 use splatkit::model::{Camera, Mesh, PointCloud, Scene};
-
-/// Address-space limit of every run, KiB (2 GB): a command that tried to
-/// allocate what a hostile header asks for would abort instead of failing
-/// cleanly, and the test would see it.
-const LIMIT_KIB: u64 = 2 * 1024 * 1024;
-
-/// Runs binary `name` with `args` under the address-space limit.
-fn run(name: &str, args: &[&str], stdin: Option<&Path>) -> Output {
-    let exe = assert_cmd::cargo::cargo_bin(name);
-    let mut script = format!("ulimit -v {LIMIT_KIB} && exec \"$0\" \"$@\"");
-    if let Some(p) = stdin {
-        script = format!(
-            "ulimit -v {LIMIT_KIB} && exec \"$0\" \"$@\" < '{}'",
-            p.display()
-        );
-    }
-    std::process::Command::new("sh")
-        .arg("-c")
-        .arg(script)
-        .arg(exe)
-        .args(args)
-        .output()
-        .expect("sh runs")
-}
-
-/// Asserts the run failed with `code`, mentioned every `needles` in its
-/// message, printed no panic or allocation-failure text, and wrote nothing
-/// to stdout.
-fn fails(out: &Output, code: i32, needles: &[&str]) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(code), "exit code; stderr: {err}");
-    for n in needles {
-        assert!(err.contains(n), "{err:?} lacks {n:?}");
-    }
-    for bad in [
-        "panicked",
-        "memory allocation",
-        "RUST_BACKTRACE",
-        "capacity overflow",
-    ] {
-        assert!(!err.contains(bad), "{err:?} shows {bad:?}");
-    }
-    assert!(out.stdout.is_empty(), "wrote to stdout");
-}
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
@@ -132,17 +91,21 @@ fn unusable_cameras_are_refused() {
     zero_focal.fy = 0.0;
     let mut nan_pose = camera("nanpose", 64, 48);
     nan_pose.translation.x = f64::NAN;
-    let cases: Vec<(Vec<Camera>, &str)> = vec![
-        (vec![camera("w0", 0, 48)], "zero side"),
-        (vec![nan_focal], "focal length"),
-        (vec![zero_focal], "focal length"),
-        (vec![nan_pose], "NaN or infinite"),
+    // The camera list, what the error says, and which file of the COLMAP
+    // model it names (intrinsics live in cameras.txt, poses and names in
+    // images.txt).
+    let cases: Vec<(Vec<Camera>, &str, &str)> = vec![
+        (vec![camera("w0", 0, 48)], "zero side", "cameras.txt"),
+        (vec![nan_focal], "focal length", "cameras.txt"),
+        (vec![zero_focal], "focal length", "cameras.txt"),
+        (vec![nan_pose], "NaN or infinite", "images.txt"),
         (
             vec![camera("same", 64, 48), camera("same", 64, 48)],
             "same name as camera 0",
+            "images.txt",
         ),
     ];
-    for (k, (cams, want)) in cases.into_iter().enumerate() {
+    for (k, (cams, want, file)) in cases.into_iter().enumerate() {
         // COLMAP text model, written directly (our writer would refuse some).
         let model = dir.path().join(format!("colmap{k}"));
         std::fs::create_dir_all(&model).unwrap();
@@ -178,7 +141,8 @@ fn unusable_cameras_are_refused() {
             &[s(&mesh), "--cameras", s(&model), "-o", s(&out_dir)],
             None,
         );
-        fails(&out, 1, &[&format!("colmap{k}"), want]);
+        let named = model.join(file);
+        fails(&out, 1, &[s(&named), want]);
         assert!(!out_dir.exists());
         // The same cameras as cameras.json: refused too, by the reader or the checks.
         if cams
@@ -195,6 +159,22 @@ fn unusable_cameras_are_refused() {
             assert!(!out_dir.exists());
         }
     }
+    // An image whose camera id the model lacks names images.txt and the image.
+    let model = dir.path().join("colmap_missing_id");
+    std::fs::create_dir_all(&model).unwrap();
+    std::fs::write(model.join("cameras.txt"), "1 PINHOLE 64 48 50 50 32 24\n").unwrap();
+    std::fs::write(model.join("images.txt"), "1 1 0 0 0 0 0 3 7 a.png\n\n").unwrap();
+    let out = run(
+        "render",
+        &[s(&mesh), "--cameras", s(&model), "-o", s(&out_dir)],
+        None,
+    );
+    fails(
+        &out,
+        1,
+        &[s(&model.join("images.txt")), "'a.png'", "camera 7"],
+    );
+    assert!(!out_dir.exists());
     let empty = dir.path().join("empty.json");
     std::fs::write(&empty, "[]").unwrap();
     let out = run(
@@ -245,7 +225,35 @@ fn orbit_counts_and_sizes_are_bounded() {
         &[s(&mesh), "--orbit", "2", "--size", "0x0", "-o", s(&out_dir)],
         None,
     );
-    fails(&out, 1, &["--size", "greater than zero"]);
+    fails(&out, 2, &["--size", "greater than zero"]);
+    // Checked before the scene is read: a missing scene is not reached.
+    let missing = dir.path().join("missing.ply");
+    let out = run(
+        "render",
+        &[s(&missing), "--size", "0x0", "-o", s(&out_dir)],
+        None,
+    );
+    fails(&out, 2, &["--size", "greater than zero"]);
+    // splat2points' own orbit with --radius 0 blames the flag, not cameras.
+    let g = dir.path().join("g.ply");
+    std::fs::write(
+        &g,
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+         property float z\nproperty float opacity\nproperty float scale_0\nproperty float scale_1\n\
+         property float scale_2\nproperty float rot_0\nproperty float rot_1\nproperty float rot_2\n\
+         property float rot_3\nproperty float f_dc_0\nproperty float f_dc_1\nproperty float f_dc_2\n\
+         end_header\n0 0 0 2 -3 -3 -3 1 0 0 0 0.5 0.5 0.5\n",
+    )
+    .unwrap();
+    let pts = dir.path().join("pts.ply");
+    let out = run(
+        "splat2points",
+        &[s(&g), "--orbit", "4", "--radius", "0", "-o", s(&pts)],
+        None,
+    );
+    fails(&out, 2, &["--radius", "positive"]);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("camera"));
+    assert!(!pts.exists());
     let out = run(
         "render",
         &[
@@ -261,7 +269,7 @@ fn orbit_counts_and_sizes_are_bounded() {
     );
     fails(
         &out,
-        1,
+        2,
         &["--size", "exceeds the limit of 268435456 pixels"],
     );
     assert!(!out_dir.exists());
@@ -495,6 +503,21 @@ fn dtu_inputs_without_a_meaningful_score_are_errors() {
     };
     save(&pred, &Scene::PointCloud(far), FileFormat::Ply).unwrap();
     fails(&dtu(&[]), 1, &["pred.ply", "observed volume"]);
+    // A failing evaluation leaves a --vis-dir as it was.
+    let vis = dir.path().join("vis");
+    std::fs::create_dir_all(&vis).unwrap();
+    std::fs::write(vis.join("vis_024_d2s.ply"), b"previous").unwrap();
+    fails(
+        &dtu(&["--vis-dir", s(&vis)]),
+        1,
+        &["pred.ply", "observed volume"],
+    );
+    assert_eq!(
+        std::fs::read(vis.join("vis_024_d2s.ply")).unwrap(),
+        b"previous"
+    );
+    assert!(!vis.join("vis_024_s2d.ply").exists());
+    assert!(leftovers(dir.path()).is_empty());
 
     // A mesh prediction whose DTU up-sampling cannot fit: refused up front.
     let big = dir.path().join("big.ply");
@@ -578,5 +601,228 @@ fn empty_or_garbage_obj_is_an_error() {
             fails(&out, 1, &[name]);
             assert!(!out_path.exists(), "{bin} wrote output for {name}");
         }
+    }
+}
+
+/// Names in `dir` that look like a staging folder left behind.
+fn leftovers(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".splatkit-"))
+        .collect()
+}
+
+fn png(path: &Path, w: usize, h: usize) {
+    let mut f = std::fs::File::create(path).unwrap();
+    splatkit::io::image::write_png8(&mut f, "gt", w, h, 3, &vec![128; w * h * 3]).unwrap();
+}
+
+/// `render -o DIR` is all or nothing: a run that fails after rendering some
+/// views (here the second ground-truth image has the wrong size) leaves the
+/// folder exactly as it was and no staging folder behind; a run that
+/// succeeds replaces the files it writes and keeps the others.
+#[test]
+fn folder_outputs_are_all_or_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = mesh_file(dir.path());
+    let cams = cameras_file(
+        dir.path(),
+        "cameras.json",
+        &[camera("a", 32, 24), camera("b", 32, 24)],
+    );
+    let out_dir = dir.path().join("renders");
+    std::fs::create_dir_all(&out_dir).unwrap();
+    std::fs::write(out_dir.join("a.png"), b"previous").unwrap();
+    std::fs::write(out_dir.join("notes.txt"), b"keep").unwrap();
+    let gt = dir.path().join("gt");
+    std::fs::create_dir_all(&gt).unwrap();
+    png(&gt.join("a.png"), 32, 24);
+    png(&gt.join("b.png"), 16, 16);
+    let args = [
+        s(&mesh),
+        "--cameras",
+        s(&cams),
+        "-o",
+        s(&out_dir),
+        "--compare",
+        s(&gt),
+    ];
+    let out = run("render", &args, None);
+    fails(&out, 1, &["b.png", "16x16 pixels"]);
+    assert_eq!(std::fs::read(out_dir.join("a.png")).unwrap(), b"previous");
+    assert!(!out_dir.join("b.png").exists());
+    assert!(
+        leftovers(dir.path()).is_empty(),
+        "{:?}",
+        leftovers(dir.path())
+    );
+    // The same into a folder that does not exist yet: not created.
+    let fresh = dir.path().join("fresh");
+    let mut fresh_args = args;
+    fresh_args[4] = s(&fresh);
+    fails(&run("render", &fresh_args, None), 1, &["b.png"]);
+    assert!(!fresh.exists());
+    assert!(leftovers(dir.path()).is_empty());
+    // With a right-sized image the run succeeds and commits.
+    png(&gt.join("b.png"), 32, 24);
+    let out = run("render", &args, None);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read(out_dir.join("a.png"))
+            .unwrap()
+            .starts_with(b"\x89PNG")
+    );
+    assert!(out_dir.join("b.png").exists());
+    assert_eq!(std::fs::read(out_dir.join("notes.txt")).unwrap(), b"keep");
+    assert!(leftovers(dir.path()).is_empty());
+}
+
+/// A `.pt` whose compressed storage record inflates far past what its
+/// tensors need (a small archive claiming 16 MB for a few hundred bytes of
+/// tensors) is refused before inflating, naming the file, by every command
+/// that reads it.
+#[test]
+fn decompression_is_capped_by_the_declared_tensors() {
+    use std::io::{Read, Write};
+    let dir = tempfile::tempdir().unwrap();
+    let (soup, _) = splatkit::geom::synthetic::demo_soup(1, 4);
+    let stored = dir.path().join("stored.pt");
+    save(&stored, &Scene::TriangleSoup(soup), FileFormat::TorchPt).unwrap();
+    let bytes = std::fs::read(&stored).unwrap();
+    let mut src = zip::ZipArchive::new(std::io::Cursor::new(&bytes[..])).unwrap();
+    let bomb = dir.path().join("bomb.pt");
+    {
+        let mut w = zip::ZipWriter::new(std::fs::File::create(&bomb).unwrap());
+        let opts = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated);
+        for i in 0..src.len() {
+            let mut f = src.by_index(i).unwrap();
+            let name = f.name().unwrap().to_string();
+            let mut data = Vec::new();
+            f.read_to_end(&mut data).unwrap();
+            w.start_file(name.as_str(), opts).unwrap();
+            w.write_all(&data).unwrap();
+            if name.ends_with("/data/0") {
+                let zeros = vec![0u8; 1 << 20];
+                for _ in 0..16 {
+                    w.write_all(&zeros).unwrap();
+                }
+            }
+        }
+        w.finish().unwrap();
+    }
+    assert!(std::fs::metadata(&bomb).unwrap().len() < 1 << 20);
+    fails(
+        &run("info", &[s(&bomb)], None),
+        1,
+        &["bomb.pt", "needs at most"],
+    );
+    let out_path = dir.path().join("out.ply");
+    fails(
+        &run("prune-triangles", &[s(&bomb), "-o", s(&out_path)], None),
+        1,
+        &["bomb.pt", "needs at most"],
+    );
+    assert!(!out_path.exists());
+}
+
+/// A `.gltf` whose buffer is a separate file next to it (a relative URI) is
+/// read through the path it was given, from any working folder.
+#[test]
+fn gltf_relative_external_buffers_resolve() {
+    let dir = tempfile::tempdir().unwrap();
+    let sub = dir.path().join("model");
+    std::fs::create_dir_all(&sub).unwrap();
+    let mut bin = Vec::new();
+    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        for c in v {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 1, 2] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    bin.extend_from_slice(&[0, 0]);
+    std::fs::write(sub.join("tri.bin"), &bin).unwrap();
+    let gltf = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+"nodes":[{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+"buffers":[{"uri":"tri.bin","byteLength":44}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#;
+    std::fs::write(sub.join("tri.gltf"), gltf).unwrap();
+    let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("info"))
+        .arg(sub.join("tri.gltf"))
+        .arg("--json")
+        .current_dir(std::env::temp_dir())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        (v[0]["vertices"].as_u64(), v[0]["faces"].as_u64()),
+        (Some(3), Some(1))
+    );
+    // A missing buffer file is named (once, without a doubled prefix).
+    std::fs::remove_file(sub.join("tri.bin")).unwrap();
+    let out = run("info", &[s(&sub.join("tri.gltf"))], None);
+    fails(&out, 1, &["tri.bin"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("invalid glTF: invalid glTF"), "{err}");
+}
+
+/// Chamfer's load errors say which side failed: the prediction or the
+/// ground truth.
+#[test]
+fn chamfer_errors_name_the_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = mesh_file(dir.path());
+    let bad = dir.path().join("garbage.obj");
+    std::fs::write(&bad, b"\x00\x01 not a mesh\n").unwrap();
+    fails(
+        &run("chamfer", &[s(&bad), s(&good)], None),
+        1,
+        &["prediction", "garbage.obj"],
+    );
+    fails(
+        &run("chamfer", &[s(&good), s(&bad)], None),
+        1,
+        &["ground truth", "garbage.obj"],
+    );
+}
+
+/// Commands that need triangles refuse point clouds and Gaussian PLYs
+/// (which used to give a 0-face output with exit 0), saying what they take.
+#[test]
+fn mesh_commands_refuse_points_and_gaussians() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts = dir.path().join("points.ply");
+    let pc = PointCloud {
+        positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        ..Default::default()
+    };
+    save(&pts, &Scene::PointCloud(pc), FileFormat::Ply).unwrap();
+    let out_path = dir.path().join("out.ply");
+    for bin in ["clean", "decimate"] {
+        let mut args = vec![s(&pts), "-o", s(&out_path)];
+        if bin == "decimate" {
+            args.extend(["--faces", "1"]);
+        }
+        fails(
+            &run(bin, &args, None),
+            1,
+            &["points.ply", bin, "takes", "point cloud"],
+        );
+        assert!(!out_path.exists());
     }
 }

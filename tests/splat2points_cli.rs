@@ -269,10 +269,10 @@ fn bad_input_is_an_error() {
     }
     let mut a = vec![dir.path().into()];
     a.extend(os(&["--orbit", "4"]));
-    fails(a, "not both");
+    fails_with(2, a, "not both");
     let mut a = vec![scene.clone().into()];
     a.extend(os(&["--orbit", "4", "--size", "64by64"]));
-    fails(a, "--size");
+    fails_with(2, a, "--size");
     let mut a = vec![
         scene.clone().into(),
         "--cameras".into(),
@@ -282,7 +282,7 @@ fn bad_input_is_an_error() {
     fails_with(2, a, "not a number");
     let mut a = vec![scene.clone().into()];
     a.extend(os(&["--level", "0.3"]));
-    fails(a, "--orbit N");
+    fails_with(2, a, "--orbit N");
 }
 
 /// `--orbit` makes its own cameras (two rings here) when a scene comes

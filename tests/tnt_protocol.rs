@@ -4,6 +4,8 @@
 //! The pipeline must undo the similarity and find every point within τ
 //! (F-score 1), and write the plot and the coloured clouds.
 
+mod common;
+
 use assert_cmd::Command;
 use glam::{DMat4, DVec3};
 use splatkit::io::ply::{Format, points::write_points};
@@ -156,6 +158,46 @@ fn similarity_copy_scores_one() {
     assert_eq!((info.width, info.height), (640, 480));
     assert_eq!(info.color_type, png::ColorType::Rgb);
     assert!(vis.join("Barn.precision.ply").exists() && vis.join("Barn.recall.ply").exists());
+
+    // An all-zero _trans.txt cannot align anything: an error naming the
+    // file (never precision = recall = 1 with exit 0), under the 2 GB
+    // limit; the existing visualisation folder keeps its files.
+    std::fs::write(gt_dir.join("Barn_trans.txt"), "0 0 0 0\n".repeat(4)).unwrap();
+    let before = std::fs::read(vis.join("Barn.precision.ply")).unwrap();
+    let p = |x: &std::path::Path| x.to_str().unwrap().to_string();
+    let (gt_s, log_s, rec_s, vis_s) = (p(&gt_dir), p(&rec_log), p(&rec_ply), p(&vis));
+    let out = common::run(
+        "chamfer",
+        &[
+            "--protocol",
+            "tnt",
+            "--scene",
+            "Barn",
+            "--gt-dir",
+            &gt_s,
+            "--traj",
+            &log_s,
+            &rec_s,
+            "--vis-dir",
+            &vis_s,
+        ],
+        None,
+    );
+    common::fails(
+        &out,
+        1,
+        &["Barn_trans.txt", "not a usable alignment transform"],
+    );
+    assert_eq!(
+        std::fs::read(vis.join("Barn.precision.ply")).unwrap(),
+        before
+    );
+    assert!(std::fs::read_dir(tmp.path()).unwrap().all(|e| {
+        !e.unwrap()
+            .file_name()
+            .to_string_lossy()
+            .contains(".splatkit-")
+    }));
 
     // Missing ground-truth files are named.
     std::fs::remove_file(gt_dir.join("Barn_trans.txt")).unwrap();

@@ -1,10 +1,10 @@
 //! The orbit flags shared by the commands that can make up cameras when a
 //! scene comes without a camera file (`render`, `splat2points`).
 
-use anyhow::{Context, bail};
 use clap::Args;
 use glam::DVec3;
 
+use super::usage;
 use crate::io::cameras::MAX_PIXELS;
 use crate::model::OrbitSpec;
 
@@ -13,19 +13,26 @@ pub const MAX_ORBIT_VIEWS: usize = 1000;
 /// The most views an orbit may have over all its rings.
 pub const MAX_ORBIT_TOTAL: usize = 10_000;
 
-/// Parses `WIDTHxHEIGHT` (both > 0, at most [`MAX_PIXELS`] pixels).
+/// Parses `WIDTHxHEIGHT` (both > 0, at most [`MAX_PIXELS`] pixels); a
+/// bad value is a usage error (exit 2).
 pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
     let (w, h) = s
         .split_once('x')
         .and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)))
-        .with_context(|| format!("--size {s:?}: expected WIDTHxHEIGHT, two whole numbers"))?;
+        .ok_or_else(|| {
+            usage(format!(
+                "--size {s:?}: expected WIDTHxHEIGHT, two whole numbers"
+            ))
+        })?;
     if w == 0 || h == 0 {
-        bail!("--size {s:?}: width and height must be greater than zero");
+        return Err(usage(format!(
+            "--size {s:?}: width and height must be greater than zero"
+        )));
     }
     if u64::from(w) * u64::from(h) > MAX_PIXELS {
-        bail!(
+        return Err(usage(format!(
             "--size {s:?}: {w}x{h} exceeds the limit of {MAX_PIXELS} pixels (2^28, e.g. 16384x16384)"
-        );
+        )));
     }
     Ok((w, h))
 }
@@ -68,32 +75,41 @@ pub struct OrbitArgs {
 }
 
 impl OrbitArgs {
-    /// The orbit these flags describe, with `n` views per ring, checked.
+    /// The orbit these flags describe, with `n` views per ring, checked; a
+    /// bad flag is a usage error (exit 2). Commands call it before reading
+    /// the scene, so a bad flag costs no work.
     pub fn spec(&self, n: usize) -> anyhow::Result<OrbitSpec> {
         let (w, h) = parse_size(&self.size)?;
         if n == 0 || n > MAX_ORBIT_VIEWS {
-            bail!("--orbit takes 1 to {MAX_ORBIT_VIEWS} views per ring (got {n})");
+            return Err(usage(format!(
+                "--orbit takes 1 to {MAX_ORBIT_VIEWS} views per ring (got {n})"
+            )));
         }
         if n.saturating_mul(self.elevation.len()) > MAX_ORBIT_TOTAL {
-            bail!(
+            return Err(usage(format!(
                 "--orbit {n} with {} elevations makes more than {MAX_ORBIT_TOTAL} views",
                 self.elevation.len()
-            );
+            )));
         }
         if !(self.fov.is_finite() && self.fov > 0.0 && self.fov < 180.0) {
-            bail!("--fov must lie in (0, 180) degrees (got {})", self.fov);
+            return Err(usage(format!(
+                "--fov must lie in (0, 180) degrees (got {})",
+                self.fov
+            )));
         }
         if let Some(r) = self.radius
             && !(r.is_finite() && r > 0.0)
         {
-            bail!("--radius must be a positive distance (got {r})");
+            return Err(usage(format!(
+                "--radius must be a positive distance (got {r})"
+            )));
         }
         if self.up.len() != 3 || self.up.iter().any(|v| !v.is_finite()) {
-            bail!("--up takes three finite numbers x,y,z");
+            return Err(usage("--up takes three finite numbers x,y,z"));
         }
         if self.elevation.is_empty() || self.elevation.iter().any(|e| e.is_nan() || e.abs() >= 90.0)
         {
-            bail!("--elevation takes angles in (-90, 90) degrees");
+            return Err(usage("--elevation takes angles in (-90, 90) degrees"));
         }
         Ok(OrbitSpec {
             views_per_ring: n,

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 
 use crate::cli::orbit::OrbitArgs;
-use crate::cli::{Common, check_binary_stdout, fraction_f32, nonneg_f64, shown};
+use crate::cli::{Common, check_binary_stdout, fraction_f32, nonneg_f64, shown, usage};
 use crate::geom::levelset::{DepthSource, LevelsetOptions, sample_levelset, to_point_cloud};
 use crate::geom::orbit::orbit_rings;
 use crate::geom::splat_points::{centers, depth_points};
@@ -213,8 +213,15 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     };
     let cam_path = args.cameras.clone().or(default_cams);
     if cam_path.is_some() && args.orbit.orbit.is_some() {
-        bail!("give either a camera file (--cameras or a model folder) or --orbit, not both");
+        return Err(usage(
+            "give either a camera file (--cameras or a model folder) or --orbit, not both",
+        ));
     }
+    // The orbit flags are checked before the scene is read.
+    let orbit = match (&cam_path, args.orbit.orbit) {
+        (None, Some(n)) => Some(args.orbit.spec(n)?),
+        _ => None,
+    };
     let g = load_gaussians(&scene, "splat2points")
         .with_context(|| format!("reading {}", shown(&scene, false)))?
         .to_raster();
@@ -233,14 +240,17 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
             );
             (keep, n_all, p.display().to_string())
         }
-        (None, Some(n)) => {
-            let cams = orbit_rings(&g.means, &args.orbit.spec(n)?)?;
+        (None, Some(_)) => {
+            let spec = orbit.as_ref().expect("checked above");
+            let cams = orbit_rings(&g.means, spec)?;
             let n_all = cams.len();
             (cams, n_all, format!("orbit ({n_all} views)"))
         }
-        (None, None) => bail!(
-            "give --cameras, a 3DGS model folder holding cameras.json, or --orbit N for made-up views"
-        ),
+        (None, None) => {
+            return Err(usage(
+                "give --cameras, a 3DGS model folder holding cameras.json, or --orbit N for made-up views",
+            ));
+        }
     };
     if cams.is_empty() {
         bail!("no cameras left after holding out test views (use --all-views)");

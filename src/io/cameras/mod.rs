@@ -153,15 +153,33 @@ pub fn read_cameras(path: &Path) -> Result<Vec<Camera>> {
              .txt, in the folder, sparse/0 or sparse), cameras.json, transforms*.json or a .npz",
         ));
     };
-    let cams = match format {
+    let source = p.display().to_string();
+    let (cams, intrinsics_file, poses_file) = match format {
         CameraFormat::ColmapBinary | CameraFormat::ColmapText => {
-            colmap::ColmapModel::read_without_points(&p)?.to_cameras()?
+            // Errors name the file inside the model folder that holds the
+            // bad record.
+            let ext = if format == CameraFormat::ColmapBinary {
+                "bin"
+            } else {
+                "txt"
+            };
+            let cameras_file = p.join(format!("cameras.{ext}")).display().to_string();
+            let images_file = p.join(format!("images.{ext}")).display().to_string();
+            let cams = colmap::ColmapModel::read_without_points(&p)?
+                .to_cameras_from(&images_file, &cameras_file)?;
+            (cams, cameras_file, images_file)
         }
-        CameraFormat::GsJson => gs_json::read_gs_json(&p)?,
-        CameraFormat::NerfTransforms => nerf_json::read_transforms_json(&p)?,
-        CameraFormat::NeusNpz => npz::read_neus_cameras(&p, &npz::NpzOptions::default())?.cameras,
+        CameraFormat::GsJson => (gs_json::read_gs_json(&p)?, source.clone(), source),
+        CameraFormat::NerfTransforms => {
+            (nerf_json::read_transforms_json(&p)?, source.clone(), source)
+        }
+        CameraFormat::NeusNpz => (
+            npz::read_neus_cameras(&p, &npz::NpzOptions::default())?.cameras,
+            source.clone(),
+            source,
+        ),
     };
-    validate_cameras(&p.display().to_string(), &cams)?;
+    validate_cameras_from(&intrinsics_file, &poses_file, &cams)?;
     Ok(cams)
 }
 
@@ -177,13 +195,23 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 /// names unique (commands name their outputs after them). `source` names the
 /// file in the error, with the camera's index and name.
 pub fn validate_cameras(source: &str, cams: &[Camera]) -> Result<()> {
+    validate_cameras_from(source, source, cams)
+}
+
+/// [`validate_cameras`] for a source that keeps intrinsics and poses in two
+/// files (a COLMAP model): image size and focal length errors name
+/// `intrinsics`, pose and name errors (and "no cameras") name `poses`.
+pub fn validate_cameras_from(intrinsics: &str, poses: &str, cams: &[Camera]) -> Result<()> {
     if cams.is_empty() {
-        return Err(Error::format(source, "holds no cameras"));
+        return Err(Error::format(poses, "holds no cameras"));
     }
     let mut names = std::collections::HashMap::with_capacity(cams.len());
     for (i, c) in cams.iter().enumerate() {
-        let bad =
-            |what: String| Error::format(source, format!("camera {i} ({:?}): {what}", c.name));
+        let in_file = |source: &str, what: String| {
+            Error::format(source, format!("camera {i} ({:?}): {what}", c.name))
+        };
+        let bad = |what: String| in_file(intrinsics, what);
+        let bad_pose = |what: String| in_file(poses, what);
         if c.width == 0 || c.height == 0 {
             return Err(bad(format!(
                 "image size {}x{} has a zero side",
@@ -209,10 +237,10 @@ pub fn validate_cameras(source: &str, cams: &[Camera]) -> Result<()> {
             )));
         }
         if !(c.rotation.is_finite() && c.translation.is_finite()) {
-            return Err(bad("the pose holds a NaN or infinite value".into()));
+            return Err(bad_pose("the pose holds a NaN or infinite value".into()));
         }
         if let Some(j) = names.insert(c.name.as_str(), i) {
-            return Err(bad(format!(
+            return Err(bad_pose(format!(
                 "has the same name as camera {j}: outputs named after cameras would overwrite each other"
             )));
         }

@@ -275,12 +275,23 @@ impl ColmapModel {
     /// its camera id is missing, its quaternion is degenerate or its size
     /// does not fit `u32`.
     pub fn to_cameras(&self) -> Result<Vec<Camera>> {
+        self.to_cameras_from("COLMAP images", "COLMAP cameras")
+    }
+
+    /// [`ColmapModel::to_cameras`] for a model read from files: an error in
+    /// an image's record (missing camera id, degenerate quaternion) names
+    /// `images_file`, one in its camera's record (parameter count, size)
+    /// names `cameras_file`.
+    pub fn to_cameras_from(&self, images_file: &str, cameras_file: &str) -> Result<Vec<Camera>> {
         let by_id: HashMap<u32, &ColmapCamera> = self.cameras.iter().map(|c| (c.id, c)).collect();
         self.images
             .iter()
             .map(|im| {
                 let err = |msg: String| {
-                    Error::invalid(format!("COLMAP image '{}' (id {}): {msg}", im.name, im.id))
+                    Error::format(
+                        images_file,
+                        format!("image '{}' (id {}): {msg}", im.name, im.id),
+                    )
                 };
                 let cam = by_id.get(&im.camera_id).ok_or_else(|| {
                     err(format!(
@@ -288,16 +299,22 @@ impl ColmapModel {
                         im.camera_id
                     ))
                 })?;
+                let cam_err = |msg: String| {
+                    Error::format(
+                        cameras_file,
+                        format!("camera {} (of image '{}'): {msg}", cam.id, im.name),
+                    )
+                };
                 let (fx, fy, cx, cy, model) = cam
                     .intrinsics()
-                    .ok_or_else(|| err(format!("camera {} has a bad parameter count", cam.id)))?;
+                    .ok_or_else(|| cam_err("bad parameter count for its model".into()))?;
                 let rotation = im
                     .rotation()
                     .ok_or_else(|| err(format!("degenerate quaternion {:?}", im.qvec)))?;
                 let (width, height) = match (u32::try_from(cam.width), u32::try_from(cam.height)) {
                     (Ok(w), Ok(h)) => (w, h),
                     _ => {
-                        return Err(err(format!(
+                        return Err(cam_err(format!(
                             "image size {}x{} is too large",
                             cam.width, cam.height
                         )));
