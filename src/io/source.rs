@@ -169,13 +169,17 @@ pub fn werr(e: std::io::Error) -> Error {
 pub struct StagedDir {
     target: PathBuf,
     staging: PathBuf,
+    /// Parent folders this stage created, deepest first (removed again,
+    /// when empty, by a run that does not commit).
+    created: Vec<PathBuf>,
     committed: bool,
 }
 
 impl StagedDir {
-    /// Starts a folder output at `target`. Fails now, before any work,
-    /// when `target` exists and is not a folder or when its parent cannot
-    /// be created or written.
+    /// Starts a folder output at `target`, creating its missing parent
+    /// folders (removed again if the run does not commit). Fails now,
+    /// before any work, when `target` exists and is not a folder or when its
+    /// parent cannot be created or written.
     pub fn new(target: &Path) -> Result<Self> {
         let name = target.display().to_string();
         if target.exists() && !target.is_dir() {
@@ -185,6 +189,11 @@ impl StagedDir {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
+        let created: Vec<PathBuf> = parent
+            .ancestors()
+            .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+            .map(Path::to_path_buf)
+            .collect();
         std::fs::create_dir_all(&parent).map_err(|e| Error::io(parent.display(), e))?;
         let base = target
             .file_name()
@@ -197,6 +206,7 @@ impl StagedDir {
                     return Ok(StagedDir {
                         target: target.to_path_buf(),
                         staging,
+                        created,
                         committed: false,
                     });
                 }
@@ -231,6 +241,9 @@ impl Drop for StagedDir {
     fn drop(&mut self) {
         if !self.committed {
             let _ = std::fs::remove_dir_all(&self.staging);
+            for dir in &self.created {
+                let _ = std::fs::remove_dir(dir);
+            }
         }
     }
 }
@@ -313,6 +326,24 @@ mod tests {
         assert_eq!(std::fs::read(target.join("b.png")).unwrap(), b"keep");
         assert_eq!(std::fs::read(target.join("sub/x")).unwrap(), b"new");
         assert_eq!(names(root.path()), ["out"]);
+    }
+
+    /// Missing parent folders are made for the stage and removed again when
+    /// it is dropped without a commit.
+    #[test]
+    fn staged_dir_removes_the_parents_it_made() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("a/b/out");
+        {
+            let st = StagedDir::new(&target).unwrap();
+            std::fs::write(st.path().join("x"), b"1").unwrap();
+            assert!(root.path().join("a/b").is_dir());
+        }
+        assert_eq!(names(root.path()), Vec::<String>::new());
+        let st = StagedDir::new(&target).unwrap();
+        std::fs::write(st.path().join("x"), b"1").unwrap();
+        st.commit().unwrap();
+        assert_eq!(names(&target), ["x"]);
     }
 
     /// A target that is a file is refused before anything is staged.

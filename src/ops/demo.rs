@@ -48,7 +48,7 @@ use crate::io::off::{OffWriteOptions, write_off};
 use crate::io::ply;
 use crate::io::ply::points::write_points;
 use crate::io::ply::{Format, soup::write_soup};
-use crate::io::{torch_pt, write_output};
+use crate::io::{StagedDir, torch_pt, write_output};
 
 /// Command-line arguments of `demo`.
 #[derive(Args, Debug, Clone)]
@@ -88,10 +88,13 @@ pub const DEMO_TORUS: Torus = Torus {
     minor: 0.35,
 };
 
-/// Part 1: Gaussians → points → mesh → score. Returns the JSON report and
-/// the table rows (stage, result, seconds).
-fn gaussian_part(args: &DemoArgs) -> anyhow::Result<(serde_json::Value, Vec<StageRow>)> {
-    let out = |f: &str| -> PathBuf { args.output.join(f) };
+/// Part 1: Gaussians → points → mesh → score, files written into `dir`.
+/// Returns the JSON report and the table rows (stage, result, seconds).
+fn gaussian_part(
+    args: &DemoArgs,
+    dir: &Path,
+) -> anyhow::Result<(serde_json::Value, Vec<StageRow>)> {
+    let out = |f: &str| -> PathBuf { dir.join(f) };
     let mut rows = Vec::new();
     let t = Instant::now();
     let raw = DEMO_TORUS.gaussians(160, 56, 0.004, 300, args.seed);
@@ -256,10 +259,12 @@ fn gaussian_part(args: &DemoArgs) -> anyhow::Result<(serde_json::Value, Vec<Stag
 /// Runs the demo.
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    std::fs::create_dir_all(&args.output)
+    // Everything is written into a staging folder that becomes the output
+    // only when both parts (and their self-checks) succeeded.
+    let staged = StagedDir::new(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
-    let (gauss_json, rows) = gaussian_part(&args)?;
-    let out = |f: &str| -> PathBuf { args.output.join(f) };
+    let (gauss_json, rows) = gaussian_part(&args, staged.path())?;
+    let out = |f: &str| -> PathBuf { staged.path().join(f) };
     let (soup, surface) = demo_soup(args.seed, args.segments);
     let pb = args.common.progress(5, "demo");
     write_output(&out("scene.pt"), |w| {
@@ -294,9 +299,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         write_gltf(w, &mesh, &GltfWriteOptions::default())
     })?;
     pb.inc(1);
+    staged.commit()?;
     let infos: Vec<_> = ["scene.pt", "solid.off", "solid.glb"]
         .iter()
-        .map(|f| describe(&out(f)))
+        .map(|f| describe(&args.output.join(f)))
         .collect::<crate::Result<_>>()?;
     pb.finish_and_clear();
     if !args.common.quiet && !args.common.json_to_stdout() {

@@ -316,6 +316,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !(args.depth_scale > 0.0 && args.depth_scale.is_finite()) {
         return Err(usage("--depth-scale must be positive"));
     }
+    // Files go to a staging folder moved into place only when every view
+    // was rendered and compared, so a failed run leaves the output as it
+    // was; made first, so an unusable output path fails before any work.
+    let staged = StagedDir::new(&args.output)
+        .with_context(|| format!("creating {}", args.output.display()))?;
     // The orbit flags are checked before the scene is read.
     let orbit = match &args.cameras {
         Some(_) => None,
@@ -347,10 +352,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 .transpose()
         })
         .collect::<anyhow::Result<_>>()?;
-    // Files go to a staging folder moved into place only when every view
-    // was rendered and compared, so a failed run leaves the output as it was.
-    let staged = StagedDir::new(&args.output)
-        .with_context(|| format!("creating {}", args.output.display()))?;
     let out_dir = staged.path();
     if args.cameras.is_none() {
         // keep the made-up views so other scenes can be rendered from them
