@@ -8,7 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{fails, run};
+use common::{fails, run, succeeds};
 
 use glam::{DMat3, DVec3};
 use splatkit::io::any::save;
@@ -297,12 +297,7 @@ fn stdin_is_read_once() {
         &["-", s(&pts), "--count", "1000", "--json"],
         Some(&obj),
     );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["pred"], "<stdin>");
     assert_eq!(v["pred_points"], 1000);
@@ -476,12 +471,7 @@ fn dtu_inputs_without_a_meaningful_score_are_errors() {
     // The well-formed case scores (so the failures below are about the inputs).
     write_all(&grid, &good_mask, [0.0, 0.0, 1.0, 0.0]);
     let ok = dtu(&["--json"]);
-    assert_eq!(
-        ok.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
-    );
+    succeeds(&ok);
     let v: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
     assert!(v["overall"].as_f64().unwrap().is_finite());
 
@@ -572,12 +562,7 @@ fn sample_counts_are_estimated_and_bounded() {
     }
     // Within the bound, the same files evaluate.
     let out = run("chamfer", &[s(&small), s(&small), "--count", "1000"], None);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&out);
 }
 
 /// A zero-byte or garbage `.obj` is not an empty mesh that commands
@@ -667,12 +652,7 @@ fn folder_outputs_are_all_or_nothing() {
     // With a right-sized image the run succeeds and commits.
     png(&gt.join("b.png"), 32, 24);
     let out = run("render", &args, None);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&out);
     assert!(
         std::fs::read(out_dir.join("a.png"))
             .unwrap()
@@ -763,11 +743,7 @@ fn gltf_relative_external_buffers_resolve() {
         .current_dir(std::env::temp_dir())
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(
         (v[0]["vertices"].as_u64(), v[0]["faces"].as_u64()),

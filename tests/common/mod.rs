@@ -49,3 +49,13 @@ pub fn fails(out: &Output, code: i32, needles: &[&str]) {
     }
     assert!(out.stdout.is_empty(), "wrote to stdout");
 }
+
+/// Asserts the run succeeded, showing its stderr otherwise.
+pub fn succeeds(out: &Output) {
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
