@@ -9,7 +9,9 @@
 //!   y/z clamped to ±1.3·tan(fov/2) as 3DGS does, Σ' = J W Σ Wᵀ Jᵀ + 0.3·I
 //!   (the low-pass filter, pixels²);
 //! - screen radius = ⌈3·√λ_max(Σ')⌉; Gaussians whose box misses the image are
-//!   culled;
+//!   culled; the tiles are the kernel's `getRect` range of that box
+//!   ([`crate::tiles::tile_rect_cuda`]) — it can leave out a row or column
+//!   the box reaches, and those pixels do not get the Gaussian;
 //! - colour from SH (degree 0–3, 3DGS constants) in the direction from the
 //!   camera centre to the mean, + 0.5, clamped at 0.
 //!
@@ -22,7 +24,9 @@
 //!
 //! Outputs per pixel: RGB, alpha = 1 − T, expected depth Σ w z / Σ w
 //! (w = α T; 0 where nothing was blended), median depth (the view depth of the
-//! Gaussian at which T first falls to ≤ 0.5, as 2DGS defines it; 0 if never),
+//! last contribution made while the transmittance before it was above 0.5,
+//! as 2DGS's kernel keeps it, so also where the final alpha stays below 0.5;
+//! 0 only where nothing was blended),
 //! a normal map (Σ w n / Σ w of each Gaussian's shortest axis turned to face
 //! the camera, camera axes) and the number of blended contributions.
 
@@ -33,7 +37,9 @@ use crate::dual::{Real, dot3, sh_rgb};
 use crate::sh::coeff_count;
 
 pub use crate::tiles::TILE;
-use crate::tiles::{TileLists, depth_key, render_tiles, tile_pixels, tile_rect};
+use crate::tiles::{
+    TileLists, depth_key, intersect_rects, render_tiles, tile_pixels, tile_rect, tile_rect_cuda,
+};
 
 /// Gaussians as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -61,6 +67,20 @@ impl Gaussians3 {
     /// True when there are none.
     pub fn is_empty(&self) -> bool {
         self.means.is_empty()
+    }
+
+    /// The same Gaussians with SH degree 0 (the DC term only), as 2DGS
+    /// renders them for meshing (`active_sh_degree = 0`).
+    pub fn dc_only(&self) -> Gaussians3 {
+        let n = crate::sh::coeff_count(self.sh_degree);
+        Gaussians3 {
+            means: self.means.clone(),
+            scales: self.scales.clone(),
+            rotations: self.rotations.clone(),
+            opacities: self.opacities.clone(),
+            sh: self.sh.iter().step_by(n.max(1)).copied().collect(),
+            sh_degree: 0,
+        }
     }
 }
 
@@ -94,6 +114,38 @@ pub struct RenderOutput {
     /// Camera-space unit normals (zero where nothing was blended).
     pub normal: Vec<[f32; 3]>,
     pub count: Vec<u32>,
+}
+
+impl RenderOutput {
+    /// 2DGS's surface depth `(1 − ratio)·expected + ratio·median` per pixel
+    /// (ratio 1: median, Triangle Splatting's and 2DGS's DTU setting; 0:
+    /// expected). Where nothing was blended both are 0.
+    pub fn surface_depth(&self, ratio: f32) -> Vec<f32> {
+        if ratio == 1.0 {
+            return self.median_depth.clone();
+        }
+        if ratio == 0.0 {
+            return self.expected_depth.clone();
+        }
+        self.expected_depth
+            .iter()
+            .zip(&self.median_depth)
+            .map(|(&e, &m)| (1.0 - ratio) * e + ratio * m)
+            .collect()
+    }
+
+    /// The median depth only where the pixel's accumulated alpha reaches
+    /// 0.5, 0 elsewhere: the depth of the contribution that took the
+    /// transmittance across one half, i.e. where the splats form a surface.
+    /// Point sampling (`splat2points`) uses this; the kernel's rule in
+    /// `median_depth` also gives depth to translucent fringe pixels.
+    pub fn opaque_median_depth(&self) -> Vec<f32> {
+        self.median_depth
+            .iter()
+            .zip(&self.alpha)
+            .map(|(&d, &a)| if a >= 0.5 { d } else { 0.0 })
+            .collect()
+    }
 }
 
 /// One projected Gaussian.
@@ -313,6 +365,23 @@ fn project_with(
     })
 }
 
+/// The tiles a projected Gaussian is binned to on a `w × h` image: those of
+/// the 3DGS kernel (`getRect` on the 3σ radius, [`tile_rect_cuda`]), cut to
+/// the tiles its α ≥ 1/255 box touches (tiles outside it would only skip the
+/// Gaussian, so the output is the kernel's); `None` when none is left.
+#[inline]
+pub(crate) fn tiles_of(p: &Projected, w: usize, h: usize) -> Option<[u32; 4]> {
+    let r = p.radius;
+    let kernel = tile_rect_cuda([p.xy[0] - r, p.xy[1] - r, p.xy[0] + r, p.xy[1] + r], w, h)?;
+    let (rx, ry) = (r.min(p.ext[0]), r.min(p.ext[1]));
+    let reach = tile_rect(
+        [p.xy[0] - rx, p.xy[1] - ry, p.xy[0] + rx, p.xy[1] + ry],
+        w,
+        h,
+    )?;
+    intersect_rects(kernel, reach)
+}
+
 /// One pixel's outputs.
 #[derive(Clone, Copy, Debug, Default)]
 struct PixelOut {
@@ -449,7 +518,8 @@ fn render_tile(
                 }
                 a.dsum += p.depth * wgt;
                 a.wsum += wgt;
-                if a.t > 0.5 && next <= 0.5 {
+                // 2DGS: the last contribution made while T before it > 0.5
+                if a.t > 0.5 {
                     a.median = p.depth;
                 }
                 a.t = next;
@@ -531,12 +601,7 @@ pub fn render_pixels(
         .par_iter()
         .enumerate()
         .fold(Vec::new, |mut acc, (pi, p)| {
-            let (rx, ry) = (p.radius.min(p.ext[0]), p.radius.min(p.ext[1]));
-            let Some([tx0, ty0, tx1, ty1]) = tile_rect(
-                [p.xy[0] - rx, p.xy[1] - ry, p.xy[0] + rx, p.xy[1] + ry],
-                w,
-                h,
-            ) else {
+            let Some([tx0, ty0, tx1, ty1]) = tiles_of(p, w, h) else {
                 return acc;
             };
             let key = ((depth_key(p.depth) as u64) << 32) | pi as u64;
@@ -658,17 +723,7 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
         );
     }
     // Gaussians whose 3σ box touches the tile, front to back
-    let tiles = TileLists::build(
-        &proj,
-        |p| {
-            // the 3σ box of the reference, cut to where α can reach 1/255
-            let (rx, ry) = (p.radius.min(p.ext[0]), p.radius.min(p.ext[1]));
-            Some([p.xy[0] - rx, p.xy[1] - ry, p.xy[0] + rx, p.xy[1] + ry])
-        },
-        |p| p.depth,
-        w,
-        h,
-    );
+    let tiles = TileLists::build(&proj, |p| tiles_of(p, w, h), |p| p.depth, w, h);
     let mut out = RenderOutput {
         width: w,
         height: h,
@@ -795,6 +850,38 @@ mod tests {
         assert_eq!(img.count[c], 2);
     }
 
+    /// Median depth as the 2DGS kernel keeps it: the depth of the last
+    /// contribution made while the transmittance before it is above 0.5.
+    /// Three wide layers of opacity 0.3 at z = 2, 3, 4: T before each is 1,
+    /// 0.7, 0.49, so the median is 3 (not 0: T never crosses 0.5 at a
+    /// contribution's end before the third); one layer alone (final alpha
+    /// 0.3 < 0.5) has its own depth; an uncovered pixel has 0.
+    #[test]
+    fn median_depth_follows_the_kernel_rule() {
+        let cam = camera(32, 32, 50.0);
+        let layer = |z: f32| one([0.0, 0.0, z], [10.0, 10.0, 0.01], 0.3, [1.0; 3]);
+        let mut g = layer(4.0);
+        for z in [2.0, 3.0] {
+            let l = layer(z);
+            g.means.extend(l.means);
+            g.scales.extend(l.scales);
+            g.rotations.extend(l.rotations);
+            g.opacities.extend(l.opacities);
+            g.sh.extend(l.sh);
+        }
+        let c = 16 * 32 + 16;
+        let img = render(&g, &cam, &RasterSettings::default());
+        assert_eq!(img.count[c], 3);
+        assert_eq!(img.median_depth[c], 3.0);
+        let single = render(&layer(2.5), &cam, &RasterSettings::default());
+        assert!(single.alpha[c] < 0.31);
+        assert_eq!(single.median_depth[c], 2.5);
+        let small = one([0.0, 0.0, 4.0], [0.05, 0.05, 0.01], 0.9, [1.0; 3]);
+        let img = render(&small, &cam, &RasterSettings::default());
+        assert_eq!(img.count[0], 0);
+        assert_eq!(img.median_depth[0], 0.0);
+    }
+
     /// A plane of flat splats at depth z: median and expected depth equal z
     /// wherever the plane covers the pixel.
     #[test]
@@ -828,7 +915,7 @@ mod tests {
     /// The tile-and-span machinery (opacity-aware tile boxes, per-Gaussian
     /// pixel spans, the exponent cut, the global depth sort) is a speed-up
     /// only: the image equals, bit for bit, a plain per-pixel loop over the
-    /// reference's tile lists (3σ boxes) on a random scene with thin,
+    /// reference's tile lists (3DGS `getRect` of the 3σ radius) on a random scene with thin,
     /// elongated, opaque and faint Gaussians.
     #[test]
     fn fast_path_equals_the_plain_loop() {
@@ -880,12 +967,13 @@ mod tests {
             .filter_map(|i| project_with(&g, i, &cam, &rows, &s))
             .collect();
         proj.sort_by(|a, b| a.depth.total_cmp(&b.depth).then(a.id.cmp(&b.id)));
+        // 3DGS getRect, in its pixel coordinates (centres at integers, ours
+        // − 0.5): tiles [(int)((x − r)/16), (int)((x + r + 15)/16)), ≥ 0
         let tile_of = |p: &Projected, tx: usize, ty: usize| {
-            let x0 = ((p.xy[0] - p.radius).floor().max(0.0) as usize) / TILE;
-            let y0 = ((p.xy[1] - p.radius).floor().max(0.0) as usize) / TILE;
-            let x1 = ((p.xy[0] + p.radius).ceil().max(0.0) as usize) / TILE;
-            let y1 = ((p.xy[1] + p.radius).ceil().max(0.0) as usize) / TILE;
-            (x0..=x1).contains(&tx) && (y0..=y1).contains(&ty)
+            let r = p.radius;
+            let lo = |v: f32| ((v - 0.5 - r) / 16.0).max(0.0) as usize;
+            let hi = |v: f32| ((v - 0.5 + r + 15.0) / 16.0).max(0.0) as usize;
+            (lo(p.xy[0])..hi(p.xy[0])).contains(&tx) && (lo(p.xy[1])..hi(p.xy[1])).contains(&ty)
         };
         for y in 0..56 {
             for x in 0..80 {

@@ -13,7 +13,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels};
+use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels, tile_rect};
 
 /// The z-buffer outputs, row-major `width × height`.
 #[derive(Clone, Debug, Default)]
@@ -107,7 +107,7 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
         .collect();
     let tiles = TileLists::build(
         &prepared,
-        |f| f.as_ref().map(|f| f.bbox),
+        |f| f.as_ref().and_then(|f| tile_rect(f.bbox, w, h)),
         |f| f.as_ref().map_or(f32::INFINITY, |f| f.depth),
         w,
         h,

@@ -50,6 +50,45 @@ pub fn tile_rect(b: [f32; 4], w: usize, h: usize) -> Option<[u32; 4]> {
     (x0 <= x1 && y0 <= y1).then_some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
 }
 
+/// The tiles (x0, y0, x1, y1, inclusive) that the official CUDA kernels
+/// (3DGS `getRect`, Triangle Splatting's tightened box) assign to a screen
+/// box (x0, y0, x1, y1) given in OpenCV pixel coordinates (pixel centres at
+/// integer + 0.5), or `None` for an empty range, which those kernels cull.
+///
+/// The kernels work in coordinates whose pixel centres are integers (ours
+/// − 0.5) and take tile columns `(uint)(x0/16)` up to, but excluding,
+/// `(uint)((x1 + 15)/16)`, each clamped to `[0, tiles]` (negative values
+/// saturate to 0). Unlike [`tile_rect`], this is not the exact cover of the
+/// box: a right edge in [16k, 16k + 1) leaves out column k although the
+/// pixel at 16k lies inside, and a box whose right edge is below 1 gets no
+/// tile at all. Primitives fitted under this rule must be drawn with it.
+/// NaN corners give `None`.
+#[inline]
+pub fn tile_rect_cuda(b: [f32; 4], w: usize, h: usize) -> Option<[u32; 4]> {
+    let (tw, th) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    if b.iter().any(|v| v.is_nan()) {
+        return None;
+    }
+    // f32 → usize saturates: negatives (and −∞) to 0, +∞ to usize::MAX
+    let lo = |v: f32, n: usize| (((v - 0.5) / TILE as f32) as usize).min(n);
+    let hi = |v: f32, n: usize| ((((v - 0.5) + (TILE - 1) as f32) / TILE as f32) as usize).min(n);
+    let (x0, x1) = (lo(b[0], tw), hi(b[2], tw));
+    let (y0, y1) = (lo(b[1], th), hi(b[3], th));
+    (x0 < x1 && y0 < y1).then(|| [x0 as u32, y0 as u32, x1 as u32 - 1, y1 as u32 - 1])
+}
+
+/// The tiles two inclusive tile rectangles share, `None` when disjoint.
+#[inline]
+pub fn intersect_rects(a: [u32; 4], b: [u32; 4]) -> Option<[u32; 4]> {
+    let r = [
+        a[0].max(b[0]),
+        a[1].max(b[1]),
+        a[2].min(b[2]),
+        a[3].min(b[3]),
+    ];
+    (r[0] <= r[2] && r[1] <= r[3]).then_some(r)
+}
+
 /// Order-preserving map of f32 bits to u32 (a total order: −NaN < −∞ < … <
 /// −0 < +0 < … < +∞ < NaN), the depth part of the tile lists' sort key.
 #[inline]
@@ -59,11 +98,12 @@ pub fn depth_key(d: f32) -> u32 {
 }
 
 impl TileLists {
-    /// Bins `items` of a `w × h` image: `bbox` gives an item's screen box in
-    /// pixels (x0, y0, x1, y1) or `None` to skip it, `depth` its sort key.
+    /// Bins `items` of a `w × h` image: `rect` gives an item's inclusive
+    /// tile rectangle (x0, y0, x1, y1), from [`tile_rect`] or
+    /// [`tile_rect_cuda`], or `None` to skip it; `depth` its sort key.
     pub fn build<P: Sync>(
         items: &[P],
-        bbox: impl Fn(&P) -> Option<[f32; 4]> + Sync,
+        rect: impl Fn(&P) -> Option<[u32; 4]> + Sync,
         depth: impl Fn(&P) -> f32 + Sync,
         w: usize,
         h: usize,
@@ -79,7 +119,11 @@ impl TileLists {
         }
         let rects: Vec<Option<[u32; 4]>> = items
             .par_iter()
-            .map(|p| tile_rect(bbox(p)?, w, h))
+            .map(|p| {
+                let r = rect(p)?;
+                // a rectangle off the grid is a caller's bug; skip, not panic
+                ((r[2] as usize) < tw && (r[3] as usize) < th).then_some(r)
+            })
             .collect();
         let key = depth_key;
         let mut order: Vec<u64> = items
@@ -291,7 +335,7 @@ mod tests {
             ([50.0, 50.0, 60.0, 60.0], 0.5), // off-image
             ([30.0, 0.0, 39.0, 39.0], 2.0),
         ];
-        let tl = TileLists::build(&items, |p| Some(p.0), |p| p.1, 40, 40);
+        let tl = TileLists::build(&items, |p| tile_rect(p.0, 40, 40), |p| p.1, 40, 40);
         assert_eq!(tl.len(), 9);
         assert_eq!(tl.list(0), &[2, 0]);
         assert_eq!(tl.list(1), &[2, 4, 0], "x 30 lies in tile column 1");
@@ -323,11 +367,50 @@ mod tests {
             [0.0, 0.0, f32::NAN, 5.0],
             [31.5, 31.5, 32.0, 32.0],
         ];
-        let tl = TileLists::build(&items, |p| Some(*p), |_| 1.0, 32, 32);
+        let tl = TileLists::build(&items, |p| tile_rect(*p, 32, 32), |_| 1.0, 32, 32);
         assert_eq!(tl.len(), 4);
         for t in 0..3 {
             assert!(tl.list(t).is_empty(), "tile {t}: {:?}", tl.list(t));
         }
         assert_eq!(tl.list(3), &[5], "only the last pixel's box is binned");
+    }
+
+    /// The kernels' rule, case by case (boxes in OpenCV pixel coordinates,
+    /// so kernel x = ours − 0.5) on a 40×40 image (3×3 tiles):
+    /// - right edge 16.5 → kernel 16.0: (16 + 15)/16 = 1.94 → columns [0, 1),
+    ///   column 1 is left out although pixel 16 (kernel) lies on the edge;
+    /// - right edge 17.5 → kernel 17: (32)/16 = 2 → columns [0, 2);
+    /// - left edge 16.4 → kernel 15.9 → column 0 is included;
+    /// - right edge 1.2 → kernel 0.7: 15.7/16 = 0.98 → no column: culled,
+    ///   where the exact cover ([`tile_rect`]) has column 0;
+    /// - negative left edges saturate to 0; far right edges clamp to the grid.
+    #[test]
+    fn cuda_tile_range() {
+        let r = |b: [f32; 4]| tile_rect_cuda(b, 40, 40);
+        assert_eq!(r([3.0, 3.0, 16.5, 16.5]), Some([0, 0, 0, 0]));
+        assert_eq!(
+            tile_rect([3.0, 3.0, 16.5, 16.5], 40, 40),
+            Some([0, 0, 1, 1])
+        );
+        assert_eq!(r([3.0, 3.0, 17.5, 17.5]), Some([0, 0, 1, 1]));
+        assert_eq!(r([16.4, 0.0, 20.0, 5.0]), Some([0, 0, 1, 0]));
+        assert_eq!(r([16.5, 0.0, 20.0, 5.0]), Some([1, 0, 1, 0]));
+        assert_eq!(r([-0.3, -0.3, 1.2, 1.2]), None);
+        assert_eq!(
+            tile_rect([-0.3, -0.3, 1.2, 1.2], 40, 40),
+            Some([0, 0, 0, 0])
+        );
+        assert_eq!(r([-100.0, -20.0, 1e9, f32::INFINITY]), Some([0, 0, 2, 2]));
+        assert_eq!(r([f32::NAN, 0.0, 5.0, 5.0]), None);
+        assert_eq!(
+            r([50.0, 0.0, 60.0, 5.0]),
+            None,
+            "left of the box past the grid"
+        );
+        assert_eq!(
+            intersect_rects([0, 0, 2, 2], [1, 2, 5, 5]),
+            Some([1, 2, 2, 2])
+        );
+        assert_eq!(intersect_rects([0, 0, 0, 0], [1, 0, 1, 0]), None);
     }
 }

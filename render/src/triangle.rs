@@ -13,7 +13,10 @@
 //!   inside is negative; φ(s) = L_0(s) = −r (the inradius, pixels);
 //! - culled when R > 1600 px, R < 1 px or r < 1 px;
 //! - tile box: the edges moved inward by r·(0.01/o)^(1/σ) (the region where
-//!   o·I ≥ 0.01), their pairwise intersections bound the touched tiles;
+//!   o·I ≥ 0.01), their pairwise intersections bound the box; its tiles are
+//!   the kernel's `[(uint)(x0/16), (uint)((x1+15)/16))` in its integer-centred
+//!   pixel coordinates ([`crate::tiles::tile_rect_cuda`]), which can leave out
+//!   a row or column the box reaches; an empty range culls the triangle;
 //! - colour from SH at the 3-D centroid, direction from the camera centre,
 //!   + 0.5, clamped at 0; depth = view z of the centroid.
 //!
@@ -21,7 +24,10 @@
 //! φ = max L_i; window I = (φ/φ(s))^σ; α = min(0.99, o·I); skipped when
 //! α < 1/255; the pixel ends, without this contribution, when T would fall
 //! below 1e-4. Outputs as [`crate::gaussian::RenderOutput`]: depth and normal
-//! are the triangle's centroid depth and camera-facing face normal.
+//! are the triangle's centroid depth and camera-facing face normal; the
+//! median depth is the depth of the last contribution made while the
+//! transmittance before it was above 0.5 (so also where the final alpha
+//! stays below 0.5), 0 only where nothing contributed.
 //!
 //! Pixel centres are at integer + 0.5 in OpenCV pixel coordinates; with the
 //! principal point at the image centre this is the reference's convention
@@ -33,7 +39,7 @@ use crate::Camera;
 use crate::dual::{Real, cross3, dot3, sh_rgb};
 use crate::gaussian::{RasterSettings, RenderOutput, rotation_rows};
 use crate::sh::coeff_count;
-use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels};
+use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels, tile_rect_cuda};
 
 /// Triangles as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -60,6 +66,19 @@ impl Triangles3 {
     pub fn is_empty(&self) -> bool {
         self.vertices.is_empty()
     }
+
+    /// The same triangles with SH degree 0 (the DC term only), as the
+    /// meshing pass renders them.
+    pub fn dc_only(&self) -> Triangles3 {
+        let n = coeff_count(self.sh_degree);
+        Triangles3 {
+            vertices: self.vertices.clone(),
+            sigmas: self.sigmas.clone(),
+            opacities: self.opacities.clone(),
+            sh: self.sh.iter().step_by(n.max(1)).copied().collect(),
+            sh_degree: 0,
+        }
+    }
 }
 
 /// One projected triangle.
@@ -76,8 +95,8 @@ pub struct ProjectedTri {
     pub depth: f32,
     /// Camera-space face normal facing the camera.
     pub normal: [f32; 3],
-    /// Tile box in pixels (x0, y0, x1, y1).
-    pub bbox: [f32; 4],
+    /// Inclusive tile rectangle (x0, y0, x1, y1) by the official rule.
+    pub tiles: [u32; 4],
 }
 
 /// The differentiable part of a triangle's projection.
@@ -88,7 +107,8 @@ pub(crate) struct ProjectedTriT<T> {
     pub rgb: [T; 3],
     pub depth: f64,
     pub normal: [f64; 3],
-    pub bbox: [f64; 4],
+    /// Inclusive tile rectangle (x0, y0, x1, y1), never empty.
+    pub tiles: [u32; 4],
 }
 
 /// Projects one triangle; `None` when culled. `verts` are world positions.
@@ -202,10 +222,12 @@ pub(crate) fn project_tri_t<T: Real>(
     if corners == 0 {
         return None;
     }
-    let (wd, hd) = (cam.width as f64, cam.height as f64);
-    if bbox[2] < 0.0 || bbox[3] < 0.0 || bbox[0] > wd || bbox[1] > hd {
-        return None;
-    }
+    // the official tile range (empty: culled), see `tile_rect_cuda`
+    let tiles = tile_rect_cuda(
+        bbox.map(|v| v as f32),
+        cam.width as usize,
+        cam.height as usize,
+    )?;
     let world_c: [T; 3] =
         std::array::from_fn(|i| (verts[0][i] + verts[1][i] + verts[2][i]) * third);
     let rgb = sh_rgb(world_c, cam.center().to_array(), sh, sh_degree);
@@ -215,7 +237,7 @@ pub(crate) fn project_tri_t<T: Real>(
         rgb,
         depth: z,
         normal,
-        bbox,
+        tiles,
     })
 }
 
@@ -246,7 +268,7 @@ fn project_tri(
         rgb: p.rgb.map(|v| v.max(0.0) as f32),
         depth: p.depth as f32,
         normal: p.normal.map(|v| v as f32),
-        bbox: p.bbox.map(|v| v as f32),
+        tiles: p.tiles,
     })
 }
 
@@ -310,7 +332,7 @@ pub fn rasterize(
     if tw == 0 || th == 0 {
         return (out, TriangleState::default());
     }
-    let tiles = TileLists::build(&proj, |p| Some(p.bbox), |p| p.depth, w, h);
+    let tiles = TileLists::build(&proj, |p| Some(p.tiles), |p| p.depth, w, h);
     let mut final_t = vec![1.0f32; w * h];
     let mut lastv = vec![0u32; w * h];
     render_tiles(
@@ -382,7 +404,9 @@ fn shade(proj: &[ProjectedTri], list: &[u32], x: usize, y: usize, s: &RasterSett
         }
         dsum += p.depth * wgt;
         wsum += wgt;
-        if tr > 0.5 && next <= 0.5 {
+        // the official kernels: the last contribution made while the
+        // transmittance before it is above 0.5
+        if tr > 0.5 {
             median = p.depth;
         }
         tr = next;
@@ -425,7 +449,8 @@ mod tests {
 
     /// σ → 0: the window is 1 wherever φ < 0, so α = opacity exactly on the
     /// pixels whose centre lies inside the projected triangle (an independent
-    /// f64 point-in-triangle test) and 0 elsewhere: the exact pixel coverage.
+    /// f64 point-in-triangle test) and 0 elsewhere: the exact pixel coverage;
+    /// median and expected depth are the plane's z inside, median 0 outside.
     #[test]
     fn hard_triangle_covers_exactly_its_pixels() {
         let cam = test_camera(64, 48, 80.0);
@@ -463,8 +488,14 @@ mod tests {
                     inside_count += 1;
                     // (φ/φ(s))^1e-6 ≥ 0.99998 for φ/φ(s) ≥ 1e-9
                     assert!((a - 0.7).abs() < 1e-4, "({x},{y}) inside, α {a}");
+                    // a plane facing the camera: both depths are its z
+                    // (median although α stays under 0.5: the kernel's rule)
+                    let o = y * 64 + x;
+                    assert!((img.median_depth[o] - z).abs() <= 1e-4 * z);
+                    assert!((img.expected_depth[o] - z).abs() <= 1e-4 * z);
                 } else {
                     assert_eq!(a, 0.0, "({x},{y}) outside");
+                    assert_eq!(img.median_depth[y * 64 + x], 0.0);
                 }
             }
         }
@@ -579,5 +610,98 @@ mod tests {
                 .iter()
                 .any(|&a| a > 0.5)
         );
+    }
+
+    /// A near-solid triangle (σ → 0: the tile box is the vertex box) given
+    /// by its pixel corners, at depth 4 under a 64×48 camera with f = 80.
+    fn pixel_triangle(c: [[f32; 2]; 3]) -> Triangles3 {
+        let z = 4.0f32;
+        one(
+            c.map(|p| [(p[0] - 32.0) * z / 80.0, (p[1] - 24.0) * z / 80.0, z]),
+            1e-6,
+            0.7,
+            [1.0; 3],
+        )
+    }
+
+    /// The official tile range: a right edge at x = 16.7 (kernel 16.2:
+    /// (16.2 + 15)/16 < 2) leaves tile column 1 out, so pixel 16, whose
+    /// centre 16.5 is inside the triangle, stays empty while pixel 15 is
+    /// drawn; moved right by 0.9 px (kernel 17.1) the column is in. A
+    /// triangle whose right edge is at 1.2 (kernel 0.7 → no column) is
+    /// culled although pixel 0's centre is inside it.
+    #[test]
+    fn tile_range_is_the_kernels() {
+        let cam = test_camera(64, 48, 80.0);
+        let s = RasterSettings::default();
+        let img = render(
+            &pixel_triangle([[2.0, 2.0], [16.7, 2.0], [16.7, 14.0]]),
+            &cam,
+            &s,
+        );
+        let at = |img: &RenderOutput, x: usize, y: usize| img.alpha[y * 64 + x];
+        assert!((at(&img, 15, 5) - 0.7).abs() < 1e-4);
+        assert_eq!(
+            at(&img, 16, 5),
+            0.0,
+            "column 16 is not in the kernel's range"
+        );
+        let img = render(
+            &pixel_triangle([[2.9, 2.0], [17.6, 2.0], [17.6, 14.0]]),
+            &cam,
+            &s,
+        );
+        assert!((at(&img, 16, 5) - 0.7).abs() < 1e-4);
+        let img = render(
+            &pixel_triangle([[-10.0, 2.0], [1.2, 2.0], [1.2, 14.0]]),
+            &cam,
+            &s,
+        );
+        assert!(img.alpha.iter().all(|&a| a == 0.0), "empty range: culled");
+    }
+
+    /// Median depth as the official kernel keeps it: the depth of the last
+    /// contribution made while the transmittance before it is above 0.5.
+    /// Layers of opacity 0.3 (window ≈ 1, σ → 0) at z = 2, 3, 4: T before
+    /// each is 1, 0.7, 0.49, so the median is 3; one layer alone, whose
+    /// final alpha 0.3 never takes T to 0.5, still has its depth; uncovered
+    /// pixels have 0.
+    #[test]
+    fn median_depth_follows_the_kernel_rule() {
+        let cam = test_camera(32, 32, 40.0);
+        let tri = |z: f32| {
+            one(
+                [
+                    [-3.0 * z, -2.0 * z, z],
+                    [3.0 * z, -2.0 * z, z],
+                    [0.0, 4.0 * z, z],
+                ],
+                1e-6,
+                0.3,
+                [1.0; 3],
+            )
+        };
+        let mut t = tri(4.0);
+        for z in [2.0, 3.0] {
+            let l = tri(z);
+            t.vertices.extend(l.vertices);
+            t.sigmas.extend(l.sigmas);
+            t.opacities.extend(l.opacities);
+            t.sh.extend(l.sh);
+        }
+        let c = 16 * 32 + 16;
+        let img = render(&t, &cam, &RasterSettings::default());
+        assert_eq!(img.count[c], 3);
+        assert_eq!(img.median_depth[c], 3.0);
+        let single = render(&tri(2.5), &cam, &RasterSettings::default());
+        assert!(single.alpha[c] < 0.31);
+        assert_eq!(single.median_depth[c], 2.5);
+        let small = render(
+            &pixel_triangle([[20.0, 20.0], [40.0, 20.0], [30.0, 40.0]]),
+            &test_camera(64, 48, 80.0),
+            &RasterSettings::default(),
+        );
+        assert_eq!(small.count[0], 0);
+        assert_eq!(small.median_depth[0], 0.0);
     }
 }

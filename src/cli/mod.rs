@@ -172,6 +172,20 @@ pub fn fraction_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A flag value that must lie in [0, 1], both ends included (clap value
+/// parser): blend weights such as `--depth-ratio`.
+pub fn unit_f64(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{s} must be a number in [0, 1]"))
+    }
+}
+
 /// [`fraction_f64`] as f32.
 pub fn fraction_f32(s: &str) -> Result<f32, String> {
     fraction_f64(s).map(|v| v as f32)

@@ -46,7 +46,8 @@ type Oriented = ([f64; 3], [f64; 3]);
 pub enum DepthSource {
     /// Camera-facing ±2σ diamonds in a z-buffer (SuGaR's default).
     Diamonds,
-    /// The alpha-blended median depth (SuGaR's `use_gaussian_depth`).
+    /// The alpha-blended median depth where the alpha reaches 0.5 (in the
+    /// spirit of SuGaR's `use_gaussian_depth`).
     Median,
 }
 
@@ -282,7 +283,7 @@ fn depth_and_hits(
             };
             let img = gaussian::render(g, cam, &s);
             let w = cam.width as usize;
-            img.median_depth
+            img.opaque_median_depth()
                 .par_iter()
                 .enumerate()
                 .map(|(o, &d)| {

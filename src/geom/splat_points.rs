@@ -127,7 +127,7 @@ pub fn depth_points(
     for (ci, cam) in cams.iter().enumerate() {
         let img = gaussian::render(&dc, cam, &s);
         let (w, h) = (img.width, img.height);
-        let d = &img.median_depth;
+        let d = &img.opaque_median_depth();
         let eye = cam.center();
         let pts: Vec<Option<([f64; 3], [f64; 3])>> = (0..w * h)
             .into_par_iter()

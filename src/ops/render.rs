@@ -5,7 +5,8 @@
 //!
 //! Conventions: cameras in OpenCV axes (DESIGN.md); depth is camera z in
 //! scene units (median depth for splats by default, as 2DGS and Triangle
-//! Splatting use; `--depth expected` for Σwz/Σw); the 16-bit PNG stores
+//! Splatting use; `--depth expected` for Σwz/Σw, `--depth-ratio r` for their
+//! blend (1 − r)·expected + r·median); the 16-bit PNG stores
 //! round(depth × `--depth-scale`) clamped to 65535, 0 = no depth; normals are
 //! camera-space unit vectors mapped to 8 bits as (n + 1)/2; alpha is the
 //! accumulated opacity (coverage for meshes).
@@ -32,7 +33,8 @@ use crate::model::{self, Camera, Mesh, SceneKind};
 /// Which depth the splat renderers write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum DepthKind {
-    /// Depth where transmittance crosses 0.5 (2DGS, Triangle Splatting).
+    /// Depth of the last contribution made while the transmittance was
+    /// above 0.5 (2DGS, Triangle Splatting).
     Median,
     /// Σ w·z / Σ w.
     Expected,
@@ -63,6 +65,11 @@ pub struct RenderArgs {
     /// Depth written for splats.
     #[arg(long, value_enum, default_value = "median")]
     pub depth: DepthKind,
+    /// Depth written for splats as 2DGS blends it: (1 − r)·expected + r·median
+    /// (`--depth median` is r = 1, `--depth expected` r = 0); what
+    /// `tsdf-fuse --depth-ratio r` fuses.
+    #[arg(long, value_name = "R", value_parser = crate::cli::unit_f64, conflicts_with = "depth")]
+    pub depth_ratio: Option<f64>,
     /// Scale of the 16-bit depth PNG: stored value = round(depth × scale).
     #[arg(long, default_value_t = 1000.0, value_parser = positive_f64)]
     pub depth_scale: f64,
@@ -219,15 +226,12 @@ fn write_view(
     dir: &Path,
     stem: &str,
     what: &[String],
-    kind: DepthKind,
+    depth_ratio: f32,
     depth_scale: f64,
 ) -> anyhow::Result<Vec<String>> {
     let (w, h) = (out.width, out.height);
     let mut files = Vec::new();
-    let depth = match kind {
-        DepthKind::Median => &out.median_depth,
-        DepthKind::Expected => &out.expected_depth,
-    };
+    let depth = &out.surface_depth(depth_ratio);
     for item in what {
         match item.as_str() {
             "rgb" => {
@@ -361,6 +365,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         background: [args.background[0], args.background[1], args.background[2]],
         near: args.near,
     };
+    let depth_ratio = match (args.depth_ratio, args.depth) {
+        (Some(r), _) => r as f32,
+        (None, DepthKind::Median) => 1.0,
+        (None, DepthKind::Expected) => 0.0,
+    };
     let pb = args.common.progress(cams.len() as u64, "render");
     let mut views = Vec::new();
     let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
@@ -372,7 +381,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             out_dir,
             &st,
             &args.outputs,
-            args.depth,
+            depth_ratio,
             args.depth_scale,
         )?;
         let mut v = json!({ "camera": cam.name, "files": files });
