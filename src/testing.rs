@@ -1,10 +1,15 @@
-//! Test support: locating the shared real-data sets.
+//! Test support: locating the shared real-data sets, and generated shapes
+//! with known geometry.
 //!
 //! Tests that read `../shared/data` call [`shared_data`]; when the folder is
 //! absent they print why and skip, unless `SPLATKIT_REQUIRE_SHARED=1`, in
 //! which case they fail (CI sets it so real-data tests can never silently skip).
 
 use std::path::PathBuf;
+
+use glam::{DMat3, DVec3};
+
+use crate::model::{Camera, Mesh};
 
 /// The path of `rel` under `../shared/data` next to the repository, or
 /// `None` (after printing a skip notice) when it does not exist.
@@ -30,4 +35,62 @@ pub fn shared_data(rel: &str) -> Option<PathBuf> {
         p.display()
     );
     None
+}
+
+/// A UV sphere of radius `r` about the origin with `n` rings (n ≥ 2) and
+/// 2n segments: closed, welded poles on ±z, faces counter-clockwise seen
+/// from outside.
+pub fn uv_sphere(n: usize, r: f64) -> Mesh {
+    let mut v = vec![[0.0f32, 0.0, r as f32]];
+    for i in 1..n {
+        let th = std::f64::consts::PI * i as f64 / n as f64;
+        for j in 0..2 * n {
+            let ph = std::f64::consts::PI * j as f64 / n as f64;
+            v.push([
+                (r * th.sin() * ph.cos()) as f32,
+                (r * th.sin() * ph.sin()) as f32,
+                (r * th.cos()) as f32,
+            ]);
+        }
+    }
+    v.push([0.0, 0.0, -r as f32]);
+    let m = 2 * n;
+    let id = |i: usize, j: usize| (1 + (i - 1) * m + j % m) as u32;
+    let south = (v.len() - 1) as u32;
+    let mut f = Vec::new();
+    for j in 0..m {
+        f.push([0, id(1, j), id(1, j + 1)]);
+    }
+    for i in 1..n - 1 {
+        for j in 0..m {
+            f.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            f.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    for j in 0..m {
+        f.push([id(n - 1, j), south, id(n - 1, j + 1)]);
+    }
+    Mesh::new(v, f)
+}
+
+/// `n` pinhole cameras named `v00`, `v01`, … at distance `dist` from the
+/// origin on a Fibonacci sphere, each looking at the origin (+z forward,
+/// OpenCV axes), `size`² pixels, focal `f` pixels, principal point at the
+/// image centre.
+pub fn cameras_around(n: usize, dist: f64, size: u32, f: f64) -> Vec<Camera> {
+    (0..n)
+        .map(|k| {
+            let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let a = k as f64 * 2.399_963_229_728_653;
+            let s = (1.0 - y * y).sqrt();
+            let pos = DVec3::new(s * a.cos(), y, s * a.sin()) * dist;
+            let z = (-pos).normalize();
+            let up = if z.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+            let x = up.cross(z).normalize();
+            let yv = z.cross(x);
+            let (r, t) = Camera::pose_from_c2w(DMat3::from_cols(x, yv, z), pos);
+            let half = size as f64 / 2.0;
+            Camera::pinhole(format!("v{k:02}"), size, size, f, f, half, half, r, t)
+        })
+        .collect()
 }

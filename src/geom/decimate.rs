@@ -122,40 +122,7 @@ pub fn decimate(mesh: &Mesh, target: Target) -> Result<(Mesh, DecimateReport)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A UV sphere of radius 1 with `n` rings (closed, outward, welded poles).
-    pub(crate) fn uv_sphere(n: usize) -> Mesh {
-        let mut v = vec![[0.0f32, 0.0, 1.0]];
-        for i in 1..n {
-            let th = std::f64::consts::PI * i as f64 / n as f64;
-            for j in 0..2 * n {
-                let ph = std::f64::consts::PI * j as f64 / n as f64;
-                v.push([
-                    (th.sin() * ph.cos()) as f32,
-                    (th.sin() * ph.sin()) as f32,
-                    th.cos() as f32,
-                ]);
-            }
-        }
-        v.push([0.0, 0.0, -1.0]);
-        let m = 2 * n;
-        let id = |i: usize, j: usize| (1 + (i - 1) * m + j % m) as u32;
-        let south = (v.len() - 1) as u32;
-        let mut f = Vec::new();
-        for j in 0..m {
-            f.push([0, id(1, j), id(1, j + 1)]);
-        }
-        for i in 1..n - 1 {
-            for j in 0..m {
-                f.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-                f.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-            }
-        }
-        for j in 0..m {
-            f.push([id(n - 1, j), south, id(n - 1, j + 1)]);
-        }
-        Mesh::new(v, f)
-    }
+    use crate::testing::uv_sphere;
 
     fn closed_and_outward(m: &Mesh) -> (bool, f64) {
         let mut e: rustc_hash::FxHashMap<(u32, u32), usize> = Default::default();
@@ -177,7 +144,7 @@ mod tests {
     /// vertex radius error is 1 % and the volume stays within 2 % of 4π/3.
     #[test]
     fn sphere_stays_round_closed_and_outward() {
-        let m = uv_sphere(224);
+        let m = uv_sphere(224, 1.0);
         assert!(m.faces.len() > 190_000, "{}", m.faces.len());
         let (d, r) = decimate(&m, Target::Faces(2000)).unwrap();
         assert!(
@@ -200,7 +167,7 @@ mod tests {
 
     #[test]
     fn vertex_target_and_ratio() {
-        let m = uv_sphere(60);
+        let m = uv_sphere(60, 1.0);
         let (d, _) = decimate(&m, Target::Vertices(500)).unwrap();
         assert!(
             d.vertices.len() <= 500 && d.vertices.len() > 400,

@@ -3,6 +3,7 @@
 
 pub mod any;
 pub mod cameras;
+pub mod depth;
 pub mod describe;
 pub mod detect;
 pub mod dtu;
