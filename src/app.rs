@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 
 use crate::ops::{
     chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles, render,
-    splat2points,
+    splat2points, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -46,6 +46,8 @@ pub enum Command {
     Splat2points(splat2points::Splat2PointsArgs),
     /// Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images.
     Render(render::RenderArgs),
+    /// Fuse depth maps (rendered from a scene, or files) into a coloured mesh: 2DGS / Open3D TSDF.
+    TsdfFuse(tsdf_fuse::TsdfFuseArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -62,6 +64,7 @@ pub fn splatkit_main() -> ! {
         Command::Decimate(a) => decimate::run(a),
         Command::Clean(a) => clean::run(a),
         Command::Render(a) => render::run(a),
+        Command::TsdfFuse(a) => tsdf_fuse::run(a),
         Command::Splat2points(a) => splat2points::run(a),
         Command::Demo(a) => demo::run(a),
     })
@@ -137,6 +140,13 @@ single_command!(
     render::RenderArgs,
     render::run,
     "Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images."
+);
+single_command!(
+    tsdf_fuse_main,
+    "tsdf-fuse",
+    tsdf_fuse::TsdfFuseArgs,
+    tsdf_fuse::run,
+    "Fuse depth maps (rendered from a scene, or files) into a coloured mesh: 2DGS / Open3D TSDF."
 );
 single_command!(
     splat2points_main,

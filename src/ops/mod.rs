@@ -12,3 +12,4 @@ pub mod poisson;
 pub mod prune_triangles;
 pub mod render;
 pub mod splat2points;
+pub mod tsdf_fuse;

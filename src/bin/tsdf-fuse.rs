@@ -1,0 +1,3 @@
+fn main() {
+    splatkit::app::tsdf_fuse_main()
+}

@@ -1,0 +1,590 @@
+//! `tsdf-fuse`: depth maps fused into a coloured mesh as 2DGS and Triangle
+//! Splatting mesh their scenes ([`crate::geom::tsdf`]: Open3D's
+//! ScalableTSDFVolume and marching cubes, 2DGS's settings and cluster
+//! filter).
+//!
+//! The depth maps are rendered here from a scene (Gaussians, triangle splats
+//! or a mesh; [`crate::geom::tsdf::views`]) or read from files
+//! ([`crate::io::depth`]), one per camera, matched by image name. This module
+//! only resolves files, flags and progress.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::Args;
+use serde_json::json;
+
+use crate::cli::{Common, positive_f64, shown, unit_f64, usage};
+use crate::geom::tsdf::{
+    BATCH, Frame, FusionScene, TsdfParams, TsdfVolume, UnboundedParams, UnboundedView, auto_params,
+    bound_from_points, camera_sphere, extract_mesh, fuse_unbounded, keep_largest_clusters,
+    render_view,
+};
+use crate::io::any::{MeshWriteOptions, load_kinds, output_format, save_mesh};
+use crate::io::cameras::read_cameras;
+use crate::io::depth::{find_depth, find_image, read_depth, read_mask_values, read_rgb8};
+use crate::io::detect::FileFormat;
+use crate::model::{self, Camera, SceneKind};
+
+/// Arguments of `tsdf-fuse`.
+#[derive(Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  tsdf-fuse point_cloud.ply --cameras cameras.json -o fuse.ply          # 2DGS defaults from the cameras
+  tsdf-fuse scene.pt --cameras scan24/cameras.npz --masks scan24/mask --dtu -o fuse_post.ply
+  tsdf-fuse --depth renders/ --cameras sparse/0 --color renders/ -o mesh.ply
+  render scene.ply --cameras cams.json -o d/ --outputs rgb,depth && tsdf-fuse --depth d/ --color d/ --cameras cams.json -o m.ply")]
+pub struct TsdfFuseArgs {
+    /// Scene to render depth from: 3DGS Gaussian PLY, Triangle Splatting
+    /// `.pt` or soup PLY, or a mesh. Leave out with --depth.
+    pub scene: Option<PathBuf>,
+    /// Camera file or folder (COLMAP, cameras.json, transforms.json,
+    /// cameras.npz); one depth map per camera.
+    #[arg(long)]
+    pub cameras: PathBuf,
+    /// Output mesh (PLY, OBJ, OFF, glTF/GLB by extension); `-` = PLY on stdout.
+    #[arg(short, long, default_value = "-")]
+    pub output: PathBuf,
+    /// Folder of depth maps to fuse instead of rendering a scene:
+    /// NAME_depth.npy, NAME.npy, NAME_depth.png or NAME.png per camera image NAME.
+    #[arg(long, value_name = "DIR")]
+    pub depth: Option<PathBuf>,
+    /// 16-bit depth PNGs store depth × this.
+    #[arg(long, default_value_t = 1000.0, value_parser = positive_f64)]
+    pub depth_scale: f64,
+    /// Folder of colour images (NAME.png) for --depth; without it the mesh
+    /// has no colours.
+    #[arg(long, value_name = "DIR")]
+    pub color: Option<PathBuf>,
+    /// Folder of masks (NAME.png): depth is dropped where the mask (alpha,
+    /// or grey / mean RGB) is below 0.5, as 2DGS does with alpha masks.
+    #[arg(long, value_name = "DIR")]
+    pub masks: Option<PathBuf>,
+    /// Rendered depth = (1 − r)·expected + r·median (2DGS `--depth_ratio`).
+    #[arg(long, default_value_t = 1.0, value_parser = unit_f64)]
+    pub depth_ratio: f64,
+    /// Voxel size, scene units [default: depth-trunc / --mesh-res].
+    #[arg(long, value_parser = positive_f64)]
+    pub voxel: Option<f64>,
+    /// SDF truncation, scene units [default: 5 × voxel].
+    #[arg(long, value_parser = positive_f64)]
+    pub sdf_trunc: Option<f64>,
+    /// Depths at or beyond this are dropped [default: 2 × the cameras'
+    /// bounding radius, as 2DGS].
+    #[arg(long, value_parser = positive_f64)]
+    pub depth_trunc: Option<f64>,
+    /// Grid resolution the automatic voxel size is derived from.
+    #[arg(long, default_value_t = 1024, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1u64 << 16))]
+    pub mesh_res: usize,
+    /// The DTU recipe of 2DGS and Triangle Splatting: voxel 0.004, sdf_trunc
+    /// 0.016, depth_trunc 3.0, depth ratio 1, one cluster kept (explicit
+    /// flags still win).
+    #[arg(long)]
+    pub dtu: bool,
+    /// Keep the K largest connected components (2DGS `--num_cluster`; ties
+    /// are kept, components under --min-cluster-faces go).
+    #[arg(long, value_name = "K", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
+    pub keep_clusters: Option<usize>,
+    /// With --keep-clusters: components with fewer faces always go.
+    #[arg(long, default_value_t = 50)]
+    pub min_cluster_faces: usize,
+    /// No vertex colours.
+    #[arg(long)]
+    pub no_color: bool,
+    /// 2DGS's unbounded variant (`--unbounded`, `fuse_unbounded.ply`): the
+    /// TSDF sampled on a --mesh-res grid in contracted space around the
+    /// cameras' focus point; for scenes that reach far from the cameras.
+    /// --voxel, --sdf-trunc, --depth-trunc and --dtu do not apply.
+    #[arg(long)]
+    pub unbounded: bool,
+    /// With --unbounded: half side R of the contracted box [default: 2DGS's
+    /// min(q95 of the scene's contracted points + 0.01, 1.9)].
+    #[arg(long, value_parser = positive_f64)]
+    pub bound: Option<f64>,
+    /// Render at 1/N of the cameras' size (3DGS / 2DGS `-r N`: DTU's
+    /// 1600×1200 cameras at `-r 2` give 800×600); intrinsics scale with the
+    /// size. Masks of N times the render size are box-averaged to it.
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::builder::RangedU64ValueParser::<u32>::new().range(1..=64))]
+    pub downscale: u32,
+    /// Near plane of the renders (camera z).
+    #[arg(long, default_value_t = 0.2, value_parser = crate::cli::nonneg_f64)]
+    pub near: f64,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// Where one camera's depth (and colour, mask) comes from.
+struct ViewFiles {
+    depth: Option<PathBuf>,
+    color: Option<PathBuf>,
+    mask: Option<PathBuf>,
+}
+
+/// The fusion distances: flags, then the DTU preset, then 2DGS's defaults
+/// from the cameras.
+fn resolve_params(args: &TsdfFuseArgs, cams: &[Camera]) -> anyhow::Result<(TsdfParams, String)> {
+    let (mut voxel, mut sdf, mut depth) = (args.voxel, args.sdf_trunc, args.depth_trunc);
+    let mut how = "flags".to_string();
+    if args.dtu {
+        voxel = voxel.or(Some(0.004));
+        sdf = sdf.or(Some(0.016));
+        depth = depth.or(Some(3.0));
+        how = "dtu".into();
+    }
+    let depth_trunc = match depth {
+        Some(d) => d,
+        None => {
+            let s = camera_sphere(cams)?;
+            how = format!("cameras (radius {:.6})", s.radius);
+            auto_params(s.radius, args.mesh_res).2
+        }
+    };
+    let voxel = voxel.unwrap_or(depth_trunc / args.mesh_res as f64);
+    let sdf_trunc = sdf.unwrap_or(5.0 * voxel);
+    let mut p = TsdfParams::new(voxel, sdf_trunc, depth_trunc);
+    // Half the memory this process may use, in blocks.
+    let budget = crate::cli::memory_budget().unwrap_or(8 << 30) / 2;
+    p.max_blocks = (budget as usize / TsdfVolume::block_bytes(true)).max(1);
+    p.validate()?;
+    Ok((p, how))
+}
+
+/// `tsdf-fuse` entry point.
+pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
+    args.common.init()?;
+    crate::cli::check_output_file(&args.output, "-o")?;
+    args.common.check_stdout_free(&args.output)?;
+    crate::cli::check_binary_stdout(&args.output)?;
+    let format = output_format(&args.output, None, FileFormat::Ply)?;
+    match (&args.scene, &args.depth) {
+        (Some(_), Some(_)) => return Err(usage("give a scene or --depth DIR, not both")),
+        (None, None) => return Err(usage("give a scene to render, or --depth DIR")),
+        _ => {}
+    }
+    if args.unbounded
+        && (args.dtu
+            || args.voxel.is_some()
+            || args.sdf_trunc.is_some()
+            || args.depth_trunc.is_some())
+    {
+        return Err(usage(
+            "--unbounded sets its own grid (--mesh-res, --bound): --dtu, --voxel, --sdf-trunc \
+             and --depth-trunc do not apply",
+        ));
+    }
+    if args.bound.is_some() && !args.unbounded {
+        return Err(usage("--bound goes with --unbounded"));
+    }
+    if args.color.is_some() && args.depth.is_none() {
+        return Err(usage(
+            "--color goes with --depth (a rendered scene has its own colours)",
+        ));
+    }
+    for (flag, dir) in [
+        ("--depth", &args.depth),
+        ("--color", &args.color),
+        ("--masks", &args.masks),
+    ] {
+        if let Some(d) = dir
+            && !d.is_dir()
+        {
+            bail!("{flag} {}: not a folder", d.display());
+        }
+    }
+    let t0 = std::time::Instant::now();
+    let cams: Vec<Camera> = read_cameras(&args.cameras)
+        .with_context(|| format!("reading cameras {}", args.cameras.display()))?
+        .into_iter()
+        .map(|c| downscaled(c, args.downscale))
+        .collect();
+    for c in &cams {
+        c.require_pinhole()
+            .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
+    }
+    // Every input file is found before any work.
+    let files: Vec<ViewFiles> = cams
+        .iter()
+        .map(|c| -> anyhow::Result<ViewFiles> {
+            Ok(ViewFiles {
+                depth: args
+                    .depth
+                    .as_deref()
+                    .map(|d| find_depth(d, c))
+                    .transpose()?,
+                color: args
+                    .color
+                    .as_deref()
+                    .map(|d| find_image(d, "colour image", c))
+                    .transpose()?,
+                mask: args
+                    .masks
+                    .as_deref()
+                    .map(|d| find_image(d, "mask", c))
+                    .transpose()?,
+            })
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let (params, how) = if args.unbounded {
+        (TsdfParams::new(1.0, 1.0, 1.0), "unbounded".to_string())
+    } else {
+        resolve_params(&args, &cams)?
+    };
+    // the DTU recipe's ratio, 1, is also the default
+    let depth_ratio = args.depth_ratio as f32;
+    let scene = match &args.scene {
+        Some(p) => Some(load_scene(p)?),
+        None => None,
+    };
+    let with_color = !args.no_color
+        && match &scene {
+            Some(s) => s.has_color(),
+            None => args.color.is_some(),
+        };
+    let pb = args.common.progress(cams.len() as u64, "tsdf-fuse");
+    let mut views = Vec::with_capacity(cams.len());
+    let mut bad_depth = 0usize;
+    let mut volume = json!(null);
+    // integration and extraction only (what Open3D's timings cover)
+    let mut fuse_time = 0.0f64;
+    let mut mesh = if args.unbounded {
+        // every map is needed at once: the grid is filled tile by tile
+        let mut maps = Vec::with_capacity(cams.len());
+        for (cam, f) in cams.iter().zip(&files) {
+            let (d, rgb, bad) = load_view(&args, scene.as_ref(), cam, f, depth_ratio)?;
+            bad_depth += bad;
+            views.push(json!({
+                "camera": cam.name,
+                "valid_pixels": d.iter().filter(|&&z| z > 0.0).count(),
+            }));
+            maps.push((d, if with_color { rgb } else { None }));
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        let sphere = camera_sphere(&cams)?;
+        let bound = match args.bound {
+            Some(b) => b,
+            None => {
+                let pts = match &scene {
+                    Some(s) => s.points(),
+                    None => cams
+                        .iter()
+                        .zip(&maps)
+                        .flat_map(|(c, (d, _))| depth_points(c, d))
+                        .collect(),
+                };
+                bound_from_points(&pts, sphere.center, sphere.radius)
+            }
+        };
+        let uv: Vec<UnboundedView> = cams
+            .iter()
+            .zip(&maps)
+            .map(|(c, (d, rgb))| UnboundedView {
+                camera: c,
+                depth: d,
+                rgb: rgb.as_deref(),
+            })
+            .collect();
+        let up = UnboundedParams {
+            center: sphere.center,
+            radius: sphere.radius,
+            resolution: args.mesh_res,
+            bound,
+            max_range: 32.0,
+        };
+        volume = json!({
+            "unbounded": true,
+            "center": sphere.center.to_array(),
+            "radius": sphere.radius,
+            "bound": bound,
+            "resolution": args.mesh_res,
+            "samples_per_axis": crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res),
+        });
+        fuse_unbounded(&uv, &up)?
+    } else {
+        let mut vol = TsdfVolume::new(params, with_color)?;
+        let pairs: Vec<(&Camera, &ViewFiles)> = cams.iter().zip(&files).collect();
+        for chunk in pairs.chunks(BATCH) {
+            let mut loaded = Vec::with_capacity(chunk.len());
+            for (cam, f) in chunk {
+                let (depth, rgb, bad) = load_view(&args, scene.as_ref(), cam, f, depth_ratio)?;
+                bad_depth += bad;
+                loaded.push((depth, if with_color { rgb } else { None }));
+            }
+            let frames: Vec<Frame> = chunk
+                .iter()
+                .zip(&loaded)
+                .map(|((cam, _), (depth, rgb))| Frame {
+                    camera: cam,
+                    depth,
+                    color: rgb.as_deref(),
+                })
+                .collect();
+            let t = std::time::Instant::now();
+            let stats = vol.integrate_batch(&frames).with_context(|| {
+                let names: Vec<&str> = chunk.iter().map(|(c, _)| c.name.as_str()).collect();
+                format!("fusing cameras {names:?}")
+            })?;
+            fuse_time += t.elapsed().as_secs_f64();
+            for ((cam, _), st) in chunk.iter().zip(stats) {
+                views.push(json!({
+                    "camera": cam.name,
+                    "valid_pixels": st.valid_pixels,
+                    "blocks_touched": st.touched,
+                }));
+            }
+            pb.inc(chunk.len() as u64);
+        }
+        pb.finish_and_clear();
+        volume = json!({
+            "voxel": params.voxel,
+            "sdf_trunc": params.sdf_trunc,
+            "depth_trunc": params.depth_trunc,
+            "params_from": how,
+            "blocks": vol.len(),
+            "volume_bytes": vol.memory_bytes(),
+        });
+        let t = std::time::Instant::now();
+        let m = extract_mesh(&vol);
+        fuse_time += t.elapsed().as_secs_f64();
+        m
+    };
+    let raw = (mesh.vertices.len(), mesh.faces.len());
+    let k = args.keep_clusters.or(args.dtu.then_some(1));
+    let clusters = k.map(|k| keep_largest_clusters(&mut mesh, k, args.min_cluster_faces));
+    if mesh.faces.is_empty() {
+        if args.unbounded {
+            bail!(
+                "the fused mesh is empty: the contracted grid has no zero crossing in {} views; \
+                 check the depth units (--depth-scale) and --bound",
+                cams.len()
+            );
+        }
+        bail!(
+            "the fused mesh is empty: no surface was seen from both sides within --sdf-trunc \
+             ({:.6}) in {} views; check --depth-trunc ({:.6}), the depth units (--depth-scale) \
+             and the voxel size ({:.6})",
+            params.sdf_trunc,
+            cams.len(),
+            params.depth_trunc,
+            params.voxel
+        );
+    }
+    save_mesh(&args.output, &mesh, format, &MeshWriteOptions::default())?;
+    let secs = t0.elapsed().as_secs_f64();
+    let setting = if args.unbounded {
+        format!(
+            "unbounded, resolution {}, bound {:.3}",
+            args.mesh_res, volume["bound"]
+        )
+    } else {
+        format!(
+            "voxel {:.6}, sdf_trunc {:.6}, depth_trunc {:.6} ({how}); {} blocks ({:.1} MiB)",
+            params.voxel,
+            params.sdf_trunc,
+            params.depth_trunc,
+            volume["blocks"],
+            volume["volume_bytes"].as_f64().unwrap_or(0.0) / (1u64 << 20) as f64,
+        )
+    };
+    args.common.say(format!(
+        "tsdf-fuse: {} views, {setting} -> {} vertices, {} faces{} ({secs:.1} s)",
+        cams.len(),
+        mesh.vertices.len(),
+        mesh.faces.len(),
+        clusters
+            .map(|c| format!(", {} of {} clusters kept", c.kept, c.clusters))
+            .unwrap_or_default(),
+    ));
+    let mut report = json!({
+        "scene": args.scene.as_ref().map(|p| shown(p, false)),
+        "depth": args.depth.as_ref().map(|p| p.display().to_string()),
+        "cameras": args.cameras.display().to_string(),
+        "views": views,
+        "depth_ratio": depth_ratio,
+        "invalid_depth_pixels": bad_depth,
+        "raw_vertices": raw.0,
+        "raw_faces": raw.1,
+        "vertices": mesh.vertices.len(),
+        "faces": mesh.faces.len(),
+        "output": args.output.display().to_string(),
+        "seconds": secs,
+        "fuse_seconds": fuse_time,
+    });
+    if let (Some(r), Some(v)) = (report.as_object_mut(), volume.as_object()) {
+        for (key, val) in v {
+            r.insert(key.clone(), val.clone());
+        }
+    }
+    if let Some(c) = clusters {
+        report["clusters"] = json!({
+            "total": c.clusters,
+            "kept": c.kept,
+            "threshold_faces": c.threshold,
+            "faces_removed": c.faces_removed,
+        });
+    }
+    args.common.emit_json(&report)?;
+    Ok(())
+}
+
+/// One camera's maps: depth, colour (when there is one), and the count of
+/// depth values that were not usable.
+type ViewMaps = (Vec<f32>, Option<Vec<[u8; 3]>>, usize);
+
+/// One camera's depth (masked; NaN, infinite and negative values set to
+/// 0) and colour, rendered from `scene` or read from `f`; the count of
+/// values that were not usable depths.
+fn load_view(
+    args: &TsdfFuseArgs,
+    scene: Option<&FusionScene>,
+    cam: &Camera,
+    f: &ViewFiles,
+    depth_ratio: f32,
+) -> anyhow::Result<ViewMaps> {
+    let mask = match &f.mask {
+        Some(p) => {
+            let (mw, mh, m) = read_mask_values(p)?;
+            Some(fit_mask(p, cam, mw, mh, m)?)
+        }
+        None => None,
+    };
+    let (mut depth, rgb) = match (scene, &f.depth) {
+        (Some(s), _) => {
+            let v = render_view(s, cam, depth_ratio, args.near, mask.as_deref());
+            (v.depth, v.rgb)
+        }
+        (None, Some(p)) => {
+            let d = read_depth(p, args.depth_scale)?;
+            check_size(p, "depth map", cam, d.width, d.height)?;
+            let rgb = match &f.color {
+                Some(cp) => {
+                    let (cw, ch, c) = read_rgb8(cp)?;
+                    check_size(cp, "colour image", cam, cw, ch)?;
+                    Some(c)
+                }
+                None => None,
+            };
+            let mut depth = d.depth;
+            if let Some(m) = &mask {
+                for (z, &a) in depth.iter_mut().zip(m) {
+                    if a < 0.5 {
+                        *z = 0.0;
+                    }
+                }
+            }
+            (depth, rgb)
+        }
+        (None, None) => unreachable!("a scene or --depth is required"),
+    };
+    // NaN, infinite and negative depths are missing (documented)
+    let mut bad = 0;
+    for z in depth.iter_mut() {
+        if !(z.is_finite() && *z >= 0.0) {
+            *z = 0.0;
+            bad += 1;
+        }
+    }
+    Ok((depth, rgb, bad))
+}
+
+/// World points of every 8th pixel (rows and columns) with a depth.
+fn depth_points(cam: &Camera, depth: &[f32]) -> Vec<[f32; 3]> {
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let c2w_r = cam.rotation.transpose();
+    let o = cam.center();
+    let mut out = Vec::new();
+    for i in (0..h).step_by(8) {
+        for j in (0..w).step_by(8) {
+            let z = depth[i * w + j] as f64;
+            if z > 0.0 {
+                let d = glam::DVec3::new(
+                    (j as f64 + 0.5 - cam.cx) / cam.fx * z,
+                    (i as f64 + 0.5 - cam.cy) / cam.fy * z,
+                    z,
+                );
+                let p = o + c2w_r * d;
+                out.push([p.x as f32, p.y as f32, p.z as f32]);
+            }
+        }
+    }
+    out
+}
+
+/// `cam` at 1/n of its size: width and height rounded as 3DGS does, focal
+/// lengths and principal point scaled by the same factors.
+fn downscaled(mut cam: Camera, n: u32) -> Camera {
+    if n == 1 {
+        return cam;
+    }
+    let (w, h) = (
+        ((cam.width as f64 / n as f64).round() as u32).max(1),
+        ((cam.height as f64 / n as f64).round() as u32).max(1),
+    );
+    let (sx, sy) = (w as f64 / cam.width as f64, h as f64 / cam.height as f64);
+    cam.fx *= sx;
+    cam.cx *= sx;
+    cam.fy *= sy;
+    cam.cy *= sy;
+    cam.width = w;
+    cam.height = h;
+    cam
+}
+
+/// A mask at the camera's size: as it is, or box-averaged when it is an
+/// integer multiple k of it (k × k pixels per render pixel; 2DGS resizes
+/// with PIL's bicubic filter, which agrees except on the mask's edges).
+fn fit_mask(
+    path: &Path,
+    cam: &Camera,
+    w: usize,
+    h: usize,
+    m: Vec<f32>,
+) -> anyhow::Result<Vec<f32>> {
+    let (cw, ch) = (cam.width as usize, cam.height as usize);
+    if (w, h) == (cw, ch) {
+        return Ok(m);
+    }
+    let k = w / cw.max(1);
+    if k < 2 || w != k * cw || h != k * ch {
+        check_size(path, "mask", cam, w, h)?;
+    }
+    let norm = 1.0 / (k * k) as f32;
+    Ok((0..cw * ch)
+        .map(|i| {
+            let (x, y) = (i % cw, i / cw);
+            let mut s = 0.0f32;
+            for dy in 0..k {
+                let row = (y * k + dy) * w + x * k;
+                s += m[row..row + k].iter().sum::<f32>();
+            }
+            s * norm
+        })
+        .collect())
+}
+
+fn check_size(path: &Path, what: &str, cam: &Camera, w: usize, h: usize) -> anyhow::Result<()> {
+    if (w, h) != (cam.width as usize, cam.height as usize) {
+        bail!(
+            "{}: {what} is {w}x{h} pixels, but camera {:?} is {}x{}",
+            path.display(),
+            cam.name,
+            cam.width,
+            cam.height
+        );
+    }
+    Ok(())
+}
+
+/// The scene, through the common loader, ready to render for fusion.
+fn load_scene(path: &Path) -> anyhow::Result<FusionScene> {
+    let accepts = [
+        SceneKind::Gaussians,
+        SceneKind::TriangleSoup,
+        SceneKind::Mesh,
+    ];
+    Ok(match load_kinds(path, "tsdf-fuse", &accepts)? {
+        model::Scene::Gaussians(g) => FusionScene::gaussians(&g.to_raster()),
+        model::Scene::TriangleSoup(t) => FusionScene::triangles(&t.to_raster()),
+        model::Scene::Mesh(m) => FusionScene::Mesh(m),
+        model::Scene::PointCloud(_) => unreachable!("load_kinds returns an accepted kind"),
+    })
+}
