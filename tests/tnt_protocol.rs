@@ -6,6 +6,8 @@
 
 mod common;
 
+use std::path::{Path, PathBuf};
+
 use assert_cmd::Command;
 use glam::{DMat4, DVec3};
 use splatkit::io::ply::{Format, points::write_points};
@@ -54,10 +56,13 @@ fn cloud(p: &[[f64; 3]]) -> PointCloud {
     }
 }
 
-#[test]
-fn similarity_copy_scores_one() {
-    let tmp = tempfile::tempdir().unwrap();
-    let gt_dir = tmp.path().join("Barn");
+/// The generated Barn scene under `root`: the ground-truth folder
+/// `root/Barn` (points, crop, identity alignment, a 30-camera reference
+/// trajectory), the reconstruction `root/rec.ply` (the points under the
+/// similarity) and its trajectory `root/rec.log`. Returns (ground-truth
+/// folder, reference camera centres, reconstruction log, reconstruction).
+fn write_scene(root: &Path) -> (PathBuf, Vec<[f64; 3]>, PathBuf, PathBuf) {
+    let gt_dir = root.join("Barn");
     std::fs::create_dir_all(&gt_dir).unwrap();
     let gt = box_surface();
     splatkit::io::write_output(&gt_dir.join("Barn.ply"), |w| {
@@ -96,7 +101,7 @@ fn similarity_copy_scores_one() {
         &centres.iter().map(|&c| pose(c)).collect::<Vec<_>>(),
     )
     .unwrap();
-    let rec_log = tmp.path().join("rec.log");
+    let rec_log = root.join("rec.log");
     write_log(
         &rec_log,
         &centres
@@ -106,12 +111,19 @@ fn similarity_copy_scores_one() {
     )
     .unwrap();
     let rec: Vec<[f64; 3]> = gt.iter().map(|&p| similarity(p)).collect();
-    let rec_ply = tmp.path().join("rec.ply");
+    let rec_ply = root.join("rec.ply");
     splatkit::io::write_output(&rec_ply, |w| {
         write_points(w, &cloud(&rec), Format::BinaryLittleEndian)
     })
     .unwrap();
 
+    (gt_dir, centres, rec_log, rec_ply)
+}
+
+#[test]
+fn similarity_copy_scores_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (gt_dir, _, rec_log, rec_ply) = write_scene(tmp.path());
     let plot = tmp.path().join("pr.png");
     let vis = tmp.path().join("vis");
     let out = Command::cargo_bin("chamfer")
@@ -211,4 +223,135 @@ fn similarity_copy_scores_one() {
         .assert()
         .code(1)
         .stderr(predicates::str::contains("Barn_trans.txt"));
+}
+
+/// Runs `chamfer` with `args` (and `--json -q`), expecting success; the JSON.
+fn tnt_json(args: &[&str]) -> serde_json::Value {
+    let out = Command::cargo_bin("chamfer")
+        .unwrap()
+        .args(args)
+        .args(["--json", "-q"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The toolbox's command line (`--dataset-dir` named after the scene,
+/// `--traj-path`, `--ply-path`, outputs in `evaluation/` beside the
+/// reconstruction) gives the same numbers and byte-identical files as
+/// splatkit's flags with `--out-dir`; the text files hold numpy's `%.18e`
+/// lines ([P, R, F, τ, 5] = 1, 1, 1, 0.01, 5) and the plot is named
+/// `PR_Barn_@d_th_0_0100.png`. A lower-case `--scene barn` finds `Barn.ply`.
+#[test]
+fn toolbox_flags_give_the_same_numbers_and_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (gt_dir, _, rec_log, rec_ply) = write_scene(tmp.path());
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let a = tnt_json(&[
+        "--protocol",
+        "tnt",
+        "--dataset-dir",
+        &s(&gt_dir),
+        "--traj-path",
+        &s(&rec_log),
+        "--ply-path",
+        &s(&rec_ply),
+    ]);
+    let eval = tmp.path().join("evaluation");
+    let mine = tmp.path().join("mine");
+    let b = tnt_json(&[
+        "--protocol",
+        "tnt",
+        "--scene",
+        "barn",
+        "--gt-dir",
+        &s(&gt_dir),
+        "--traj",
+        &s(&rec_log),
+        &s(&rec_ply),
+        "--out-dir",
+        &s(&mine),
+    ]);
+    for k in [
+        "precision",
+        "recall",
+        "fscore",
+        "tau",
+        "source_points",
+        "target_points",
+    ] {
+        assert_eq!(a[k], b[k], "{k}");
+    }
+    assert_eq!(a["scene"], "Barn");
+    assert_eq!(b["scene"], "Barn");
+    let names = [
+        "Barn.precision.ply",
+        "Barn.recall.ply",
+        "Barn.precision.txt",
+        "Barn.recall.txt",
+        "Barn.prf_tau_plotstr.txt",
+        "PR_Barn_@d_th_0_0100.png",
+    ];
+    for n in names {
+        let (x, y) = (std::fs::read(eval.join(n)), std::fs::read(mine.join(n)));
+        assert!(x.is_ok() && y.is_ok(), "{n} missing");
+        assert_eq!(x.unwrap(), y.unwrap(), "{n} differs");
+    }
+    let prf = std::fs::read_to_string(eval.join("Barn.prf_tau_plotstr.txt")).unwrap();
+    assert_eq!(
+        prf,
+        "1.000000000000000000e+00\n1.000000000000000000e+00\n1.000000000000000000e+00\n\
+         1.000000000000000021e-02\n5.000000000000000000e+00\n"
+    );
+    let rec = std::fs::read_to_string(eval.join("Barn.recall.txt")).unwrap();
+    // one line per histogram bin, as in the JSON
+    assert_eq!(
+        rec.lines().count(),
+        b["cum_recall"].as_array().unwrap().len()
+    );
+}
+
+/// A full-video trajectory (1700 frames, the reference cameras at video
+/// frames 1, 41, 81, … with the others elsewhere) is reduced with
+/// `Barn_mapping_reference.txt` and scores as the short log; without the
+/// mapping file it is an error naming both lengths.
+#[test]
+fn long_trajectories_go_through_the_mapping() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (gt_dir, centres, _, rec_ply) = write_scene(tmp.path());
+    let mut frames: Vec<LogFrame> = (0..1700).map(|i| pose([i as f64, -5.0, 40.0])).collect();
+    let mut map = format!("{}\n1700\n", centres.len());
+    for (k, &c) in centres.iter().enumerate() {
+        frames[40 * k] = pose(similarity(c));
+        map.push_str(&format!("{k} {}\n", 40 * k + 1));
+    }
+    let long = tmp.path().join("long.log");
+    write_log(&long, &frames).unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let args = |log: &Path| {
+        vec![
+            "--protocol".to_string(),
+            "tnt".into(),
+            "--dataset-dir".into(),
+            s(&gt_dir),
+            "--traj-path".into(),
+            s(log),
+            s(&rec_ply),
+        ]
+    };
+    let out = common::run(
+        "chamfer",
+        &args(&long).iter().map(String::as_str).collect::<Vec<_>>(),
+        None,
+    );
+    common::fails(&out, 1, &["1700", "30"]);
+    std::fs::write(gt_dir.join("Barn_mapping_reference.txt"), map).unwrap();
+    let v = tnt_json(&args(&long).iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(v["trajectory_mapped"], true);
+    assert_eq!(v["fscore"], 1.0);
 }

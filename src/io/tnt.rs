@@ -386,6 +386,98 @@ pub fn read_crop_json(path: &Path) -> Result<CropVolume> {
     parse_crop_json(&input.name, &input)
 }
 
+/// A `<Scene>_mapping_reference.txt` (also the toolbox's `mapping.txt`):
+/// line 1 the number of sampled frames n, line 2 the number of frames of the
+/// full video, then n lines of two integers, the second being the 1-based
+/// video frame of each sampled image.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FrameMapping {
+    /// Frames of the full video (line 2).
+    pub total_frames: usize,
+    /// Per sampled image, its 1-based video frame (second column).
+    pub frames: Vec<usize>,
+}
+
+impl FrameMapping {
+    /// The toolbox's `gen_sparse_trajectory`: for each sampled image, the
+    /// frame `frames[i] − 1` of `full`. Errors when a frame is past the end
+    /// of `full` (the toolbox would raise an IndexError).
+    pub fn sparse<T: Copy>(&self, name: &str, full: &[T]) -> Result<Vec<T>> {
+        self.frames
+            .iter()
+            .enumerate()
+            .map(|(i, &f)| {
+                full.get(f.wrapping_sub(1)).copied().ok_or_else(|| {
+                    Error::format(
+                        name,
+                        format!(
+                            "line {}: video frame {f} is not in the {}-frame trajectory",
+                            i + 3,
+                            full.len()
+                        ),
+                    )
+                })
+            })
+            .collect()
+    }
+}
+
+/// Parses a frame mapping from memory; `name` is used in errors, which name
+/// the line: counts that are not non-negative integers, a row that is not two
+/// integers, a frame of 0, fewer rows than the first line says.
+pub fn parse_mapping(name: &str, bytes: &[u8]) -> Result<FrameMapping> {
+    let mut lines = text_lines(name, bytes)?.filter(|(_, l)| !l.trim().is_empty());
+    let mut count = |what: &str| -> Result<usize> {
+        let (no, l) = lines
+            .next()
+            .ok_or_else(|| Error::format(name, format!("missing the {what} line")))?;
+        l.trim().parse::<usize>().map_err(|_| {
+            Error::format(
+                name,
+                format!(
+                    "line {no}: the {what} must be a non-negative integer, got {:?}",
+                    l.trim()
+                ),
+            )
+        })
+    };
+    let n = count("number of sampled frames")?;
+    let total_frames = count("number of video frames")?;
+    let mut frames = Vec::with_capacity(n.min(1 << 20));
+    for k in 0..n {
+        let (no, l) = lines.next().ok_or_else(|| {
+            Error::format(
+                name,
+                format!("the first line declares {n} sampled frames, the file ends after {k}"),
+            )
+        })?;
+        let toks: Vec<&str> = l.split_whitespace().collect();
+        let frame = match toks.as_slice() {
+            [a, b] if a.parse::<i64>().is_ok() => b.parse::<usize>().ok(),
+            _ => None,
+        };
+        match frame {
+            Some(f) if f >= 1 => frames.push(f),
+            _ => {
+                return Err(Error::format(
+                    name,
+                    format!("line {no}: expected two integers (image, video frame ≥ 1), got {l:?}"),
+                ));
+            }
+        }
+    }
+    Ok(FrameMapping {
+        total_frames,
+        frames,
+    })
+}
+
+/// Reads a frame mapping file.
+pub fn read_mapping(path: &Path) -> Result<FrameMapping> {
+    let input = read_input(path)?;
+    parse_mapping(&input.name, &input)
+}
+
 /// The crop volume as Open3D writes it: keys `axis_max`, `axis_min`,
 /// `bounding_polygon`, `class_name`, `orthogonal_axis`, `version_major`,
 /// `version_minor` (sorted, as jsoncpp does), pretty-printed; numbers are
@@ -681,5 +773,43 @@ mod tests {
             .to_string();
         assert!(e.contains("at least 3"), "{e}");
         assert!(parse_crop_json("m.json", b"[1, 2]").is_err());
+    }
+
+    /// The toolbox's own mapping files: 151 sampled frames of a 6015-frame
+    /// video, every 40th from frame 1 (the second column), and 263 of 7845
+    /// for Ignatius; the sparse trajectory picks those frames.
+    #[test]
+    fn reads_toolbox_mappings() {
+        let Some(p) = shared_data("tnt-toolbox-testdata/mapping.txt") else {
+            return;
+        };
+        let m = read_mapping(&p).unwrap();
+        assert_eq!((m.frames.len(), m.total_frames), (151, 6015));
+        assert!(m.frames.iter().enumerate().all(|(i, &f)| f == 40 * i + 1));
+        let full: Vec<usize> = (0..6015).collect();
+        let sparse = m.sparse("mapping.txt", &full).unwrap();
+        assert_eq!(sparse[..3], [0, 40, 80]);
+        assert!(m.sparse("mapping.txt", &full[..100]).is_err());
+        let Some(p) = shared_data("tnt-toolbox-testdata/Ignatius_mapping.txt") else {
+            return;
+        };
+        let m = read_mapping(&p).unwrap();
+        assert_eq!((m.frames.len(), m.total_frames), (263, 7845));
+    }
+
+    #[test]
+    fn malformed_mappings_name_the_line() {
+        let e = |t: &str| {
+            parse_mapping("m.txt", t.as_bytes())
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(e("").contains("missing the number of sampled frames"));
+        assert!(e("2\nx\n").contains("line 2"));
+        assert!(e("2\n10\n0 1\n").contains("ends after 1"));
+        assert!(e("1\n10\n0 0\n").contains("line 3"));
+        assert!(e("1\n10\n0 1 2\n").contains("line 3"));
+        let ok = parse_mapping("m.txt", b"2\n10\n0 3\n1 7\n").unwrap();
+        assert_eq!(ok.frames, vec![3, 7]);
     }
 }

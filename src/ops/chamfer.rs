@@ -107,7 +107,8 @@ pub enum Protocol {
   chamfer --protocol tnt --scene Barn --gt-dir TNT_GT/Barn --traj Barn_COLMAP_SfM.log mesh.ply --plot pr.png")]
 pub struct ChamferArgs {
     /// Prediction (and, in generic mode, ground truth): PLY points or meshes, OBJ, OFF, GLB.
-    #[arg(required = true, num_args = 1..=2)]
+    /// (TnT also takes the prediction as `--ply-path`.)
+    #[arg(num_args = 0..=2)]
     pub inputs: Vec<PathBuf>,
     /// Evaluation protocol.
     #[arg(long, value_enum, default_value = "generic")]
@@ -142,7 +143,9 @@ pub struct ChamferArgs {
     /// DTU scan number.
     #[arg(long)]
     pub scan: Option<u32>,
-    /// DTU: official dataset root (Points/stl, ObsMask).
+    /// DTU: official dataset root (Points/stl, ObsMask). TnT: the scene's
+    /// ground-truth folder, named after the scene, as the toolbox's
+    /// `--dataset-dir` (same as --gt-dir, with the scene from its name).
     #[arg(long)]
     pub dataset_dir: Option<PathBuf>,
     /// DTU: the prediction is a point cloud (reference `--mode pcd`).
@@ -166,9 +169,22 @@ pub struct ChamferArgs {
     /// TnT: folder with <Scene>.ply, <Scene>.json, <Scene>_trans.txt, <Scene>_COLMAP_SfM.log.
     #[arg(long)]
     pub gt_dir: Option<PathBuf>,
-    /// TnT: the reconstruction's camera trajectory (.log).
-    #[arg(long)]
+    /// TnT: the reconstruction's camera trajectory (.log); also `--traj-path`.
+    /// One longer than 1600 frames is reduced to the reference's frames with
+    /// `<Scene>_mapping_reference.txt` of the ground-truth folder, as the
+    /// toolbox does for full-video logs.
+    #[arg(long, alias = "traj-path")]
     pub traj: Option<PathBuf>,
+    /// TnT: the reconstruction, as the toolbox's `--ply-path` (instead of the
+    /// positional input); its toolbox outputs then go to `evaluation/`
+    /// beside it unless --out-dir says otherwise.
+    #[arg(long)]
+    pub ply_path: Option<PathBuf>,
+    /// TnT: write the toolbox's outputs here: `<Scene>.precision.ply`,
+    /// `<Scene>.recall.ply`, `<Scene>.precision.txt`, `<Scene>.recall.txt`,
+    /// `<Scene>.prf_tau_plotstr.txt`, `PR_<Scene>_@d_th_0_<τ·10⁴>.png`.
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
     /// TnT: write the precision/recall-versus-threshold plot (PNG).
     #[arg(long)]
     pub plot: Option<PathBuf>,
@@ -407,7 +423,9 @@ pub fn load_cull_views(cameras: &Path, mask_dir: &Path) -> Result<(Vec<CullView>
 
 fn run_dtu(args: &ChamferArgs) -> anyhow::Result<()> {
     let [pred_path] = args.inputs.as_slice() else {
-        bail!("--protocol dtu takes one input: the predicted mesh (or point cloud with --pcd)");
+        return Err(usage(
+            "--protocol dtu takes one input: the predicted mesh (or point cloud with --pcd)",
+        ));
     };
     let scan = args.scan.context("--protocol dtu needs --scan N")?;
     let root = args
@@ -499,21 +517,48 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
     use crate::eval::tnt::{
         TntParams, evaluate_tnt, plot_pr_curves, tnt_threshold, vertices_and_face_centroids,
     };
-    let [pred_path] = args.inputs.as_slice() else {
-        bail!("--protocol tnt takes one input: the reconstruction (mesh or point cloud)");
+    let pred_path = match (args.inputs.as_slice(), &args.ply_path) {
+        ([p], None) | ([], Some(p)) => p,
+        ([_], Some(_)) => {
+            return Err(usage(
+                "give the reconstruction once: as the argument or as --ply-path",
+            ));
+        }
+        _ => {
+            return Err(usage(
+                "--protocol tnt takes one reconstruction (mesh or point cloud): the argument or --ply-path",
+            ));
+        }
     };
-    let scene = args
-        .scene
-        .as_deref()
-        .context("--protocol tnt needs --scene NAME (Barn, Caterpillar, ...)")?;
-    let gt_dir = args
-        .gt_dir
-        .as_ref()
-        .context("--protocol tnt needs --gt-dir DIR")?;
+    let gt_dir = match (&args.gt_dir, &args.dataset_dir) {
+        (Some(d), None) | (None, Some(d)) => d,
+        (Some(_), Some(_)) => {
+            return Err(usage(
+                "--gt-dir and --dataset-dir name the same folder: give one",
+            ));
+        }
+        (None, None) => {
+            return Err(usage(
+                "--protocol tnt needs --dataset-dir DIR (the scene's ground-truth folder)",
+            ));
+        }
+    };
+    // The scene: --scene, else the folder's name as the toolbox takes it.
+    let folder_name = std::fs::canonicalize(gt_dir)
+        .unwrap_or_else(|_| gt_dir.clone())
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned());
+    let given = match (&args.scene, &folder_name) {
+        (Some(s), _) => s.clone(),
+        (None, Some(n)) => n.clone(),
+        (None, None) => return Err(usage("give --scene NAME (Barn, Caterpillar, ...)")),
+    };
+    let scene = tnt_file_stem(gt_dir, &given);
+    let scene = scene.as_str();
     let traj = args
         .traj
         .as_ref()
-        .context("--protocol tnt needs --traj RECONSTRUCTION.log")?;
+        .ok_or_else(|| usage("--protocol tnt needs --traj-path RECONSTRUCTION.log"))?;
     let tau = match args.tau.as_slice() {
         [] => tnt_threshold(scene)
             .with_context(|| format!("no published threshold for scene '{scene}': give --tau"))?,
@@ -523,7 +568,20 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
     if let Some(plot) = &args.plot {
         check_output_file(plot, "--plot")?;
     }
+    if args.vis_dir.is_some() && args.vis_dir == args.out_dir {
+        return Err(usage("--vis-dir and --out-dir must be different folders"));
+    }
     let vis = args.vis_dir.as_deref().map(StagedDir::new).transpose()?;
+    // The toolbox's outputs: --out-dir, or evaluation/ beside a --ply-path.
+    let out_dir = args.out_dir.clone().or_else(|| {
+        args.ply_path.as_ref().map(|p| {
+            p.parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(Path::new("."))
+                .join("evaluation")
+        })
+    });
+    let toolbox_out = out_dir.as_deref().map(StagedDir::new).transpose()?;
     let file = |suffix: &str| gt_dir.join(format!("{scene}{suffix}"));
     let missing: Vec<String> = [".ply", ".json", "_trans.txt", "_COLMAP_SfM.log"]
         .iter()
@@ -553,10 +611,19 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
     };
     let gt = load_points(&file(".ply"), "chamfer").map_err(|e| e.in_role("ground truth"))?;
     let gt_points = f64_points(&gt.positions);
-    let rec_traj: Vec<_> = crate::io::tnt::read_log(traj)?
+    let mut rec_traj: Vec<_> = crate::io::tnt::read_log(traj)?
         .iter()
         .map(|f| f.pose)
         .collect();
+    // A full-video log: the reference frames, by the scene's mapping (the
+    // toolbox's rule: more than 1600 frames and a mapping file present).
+    let mapping = file("_mapping_reference.txt");
+    let mut mapped = false;
+    if rec_traj.len() > 1600 && mapping.is_file() {
+        let m = crate::io::tnt::read_mapping(&mapping)?;
+        rec_traj = m.sparse(&mapping.display().to_string(), &rec_traj)?;
+        mapped = true;
+    }
     let gt_traj: Vec<_> = crate::io::tnt::read_log(&file("_COLMAP_SfM.log"))?
         .iter()
         .map(|f| f.pose)
@@ -582,8 +649,13 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
             crate::io::image::write_png8(w, &name, img.width, img.height, 3, &img.rgb)
         })?;
     }
-    if let Some(st) = vis {
+    let mut dirs = Vec::new();
+    dirs.extend(vis);
+    dirs.extend(toolbox_out);
+    let n_dirs = dirs.len();
+    for (k, st) in dirs.into_iter().enumerate() {
         let dir = st.path();
+        let toolbox = out_dir.is_some() && k + 1 == n_dirs;
         for (what, pts, d) in [
             (
                 "precision",
@@ -606,6 +678,9 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
                 write_points(w, &pc, Format::BinaryLittleEndian)
             })?;
         }
+        if toolbox {
+            write_toolbox_files(dir, scene, &report)?;
+        }
         st.commit()?;
     }
     args.common.say(format!(
@@ -615,5 +690,68 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
     let mut v = serde_json::to_value(&report)?;
     v["scene"] = scene.into();
     v["pred"] = shown(pred_path, false).into();
+    v["trajectory_mapped"] = mapped.into();
+    if let Some(d) = &out_dir {
+        v["out_dir"] = d.display().to_string().into();
+    }
     args.common.emit_json(&v)
+}
+
+/// The scene name the ground-truth files in `dir` use: `given` when
+/// `<given>.ply` is there, else the published spelling of a known scene
+/// (`ignatius` → `Ignatius`) when its file is there, else `given` (the
+/// missing-file check then names what was looked for).
+fn tnt_file_stem(dir: &Path, given: &str) -> String {
+    if dir.join(format!("{given}.ply")).exists() {
+        return given.to_string();
+    }
+    crate::eval::tnt::TNT_THRESHOLDS
+        .iter()
+        .map(|(s, _)| *s)
+        .find(|s| s.eq_ignore_ascii_case(given) && dir.join(format!("{s}.ply")).exists())
+        .unwrap_or(given)
+        .to_string()
+}
+
+/// A number as numpy's `savetxt` writes it (`%.18e`: two-digit exponent
+/// with its sign; `nan`, `inf`, `-inf`).
+fn savetxt_number(x: f64) -> String {
+    if x.is_nan() {
+        return "nan".into();
+    }
+    if x.is_infinite() {
+        return if x > 0.0 { "inf" } else { "-inf" }.into();
+    }
+    let s = format!("{x:.18e}");
+    let (mant, exp) = s.split_once('e').expect("exponent form");
+    let e: i32 = exp.parse().expect("integer exponent");
+    format!("{mant}e{}{:02}", if e < 0 { '-' } else { '+' }, e.abs())
+}
+
+/// The toolbox's text outputs and PR plot for `scene` in `dir`: the
+/// cumulative precision and recall histograms, [P, R, F, τ, 5] (each value
+/// on its own line, as `np.savetxt` writes a 1-D array), and the plot as
+/// `PR_<Scene>_@d_th_0_<%04d of τ·10⁴>.png` (the toolbox also writes a PDF
+/// of the same plot; splatkit writes the PNG only).
+fn write_toolbox_files(dir: &Path, scene: &str, r: &crate::eval::tnt::TntReport) -> Result<()> {
+    let lines = |v: &[f64]| -> String { v.iter().map(|&x| savetxt_number(x) + "\n").collect() };
+    for (name, text) in [
+        (format!("{scene}.precision.txt"), lines(&r.cum_precision)),
+        (format!("{scene}.recall.txt"), lines(&r.cum_recall)),
+        (
+            format!("{scene}.prf_tau_plotstr.txt"),
+            lines(&[r.precision, r.recall, r.fscore, r.tau, 5.0]),
+        ),
+    ] {
+        crate::io::write_output(&dir.join(name), |w| {
+            w.write_all(text.as_bytes())
+                .map_err(crate::io::source::werr)
+        })?;
+    }
+    let img = crate::eval::tnt::plot_pr_curves(r);
+    let name = format!("PR_{scene}_@d_th_0_{:04}.png", (r.tau * 10000.0) as i64);
+    let path = dir.join(&name);
+    crate::io::write_output(&path, |w| {
+        crate::io::image::write_png8(w, &name, img.width, img.height, 3, &img.rgb)
+    })
 }

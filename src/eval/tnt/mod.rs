@@ -225,8 +225,9 @@ pub fn vertices_and_face_centroids(
 /// toolbox divides by zero). Randomness is only in RANSAC, through
 /// `params.ransac.seed`.
 ///
-/// Errors: τ not finite and > 0; trajectories of different lengths (the
-/// toolbox's frame-mapping file for videos is not supported); fewer frames
+/// Errors: τ not finite and > 0; trajectories of different lengths (a
+/// full-video log is reduced by the caller with the scene's frame mapping,
+/// [`crate::io::tnt::FrameMapping::sparse`]); fewer frames
 /// than the RANSAC sample size; non-finite points.
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_tnt(
@@ -253,7 +254,8 @@ pub fn evaluate_tnt(
     if rec_traj.len() != gt_traj.len() {
         return Err(Error::invalid(format!(
             "the reconstruction trajectory has {} frames but the reference has {}; \
-             frames must correspond one to one (frame-mapping files are not supported)",
+             frames must correspond one to one (a full-video log of more than 1600 frames is \
+             reduced by <Scene>_mapping_reference.txt in the ground-truth folder)",
             rec_traj.len(),
             gt_traj.len()
         )));
