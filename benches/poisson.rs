@@ -15,6 +15,8 @@
 //! Threads: rayon's default (all cores); `RAYON_NUM_THREADS=1` for one.
 //! Run: `cargo bench --bench poisson [-- scaling]`.
 
+mod common;
+use common::peak_mb;
 use std::time::Instant;
 
 use rand::{RngExt, SeedableRng};
@@ -76,19 +78,6 @@ fn scene(n: usize, seed: u64) -> PointCloud {
     }
     pc.normals = Some(nrm);
     pc
-}
-
-fn peak_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines().find(|l| l.starts_with("VmHWM")).and_then(|l| {
-                l.split_whitespace()
-                    .nth(1)
-                    .and_then(|v| v.parse::<f64>().ok())
-            })
-        })
-        .map_or(f64::NAN, |kb| kb / 1024.0)
 }
 
 fn options(depth: u32, trim: Option<f64>) -> PipelineOptions {

@@ -26,6 +26,8 @@
 //! R = 1.9; wall time and peak RSS.
 //! Threads: rayon's default (all cores); `RAYON_NUM_THREADS=1` for one.
 
+mod common;
+use common::peak_mb;
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -33,19 +35,6 @@ use glam::{DMat3, DVec3};
 use splatkit::geom::tsdf::{Frame, TsdfParams, TsdfVolume, extract_mesh};
 use splatkit::model::Camera;
 use splatkit_render::mesh as zbuffer;
-
-fn peak_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines().find(|l| l.starts_with("VmHWM")).and_then(|l| {
-                l.split_whitespace()
-                    .nth(1)
-                    .and_then(|v| v.parse::<f64>().ok())
-            })
-        })
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
 
 /// The bumpy sphere on its table, as one triangle mesh.
 fn scene() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {

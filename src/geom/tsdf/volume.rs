@@ -428,23 +428,22 @@ impl TsdfVolume {
         }
         let oc = O3dCamera::new(cam);
         let trunc = self.params.depth_trunc as f32;
-        let depth: Vec<f32> = frame.depth.iter().map(|&d| usable(d, trunc)).collect();
-        let valid_pixels = depth.iter().filter(|&&d| d > 0.0).count();
         let mult = distance_multiplier(&oc);
         let color = if self.with_color { frame.color } else { None };
-        let pixels = depth
+        let pixels: Vec<Pixel> = frame
+            .depth
             .iter()
-            .zip(&mult)
+            .zip(mult)
             .enumerate()
-            .map(|(i, (&depth, &mult))| Pixel {
-                depth,
+            .map(|(i, (&d, mult))| Pixel {
+                depth: usable(d, trunc),
                 mult,
                 rgb: color.map_or([0; 3], |c| c[i]),
             })
             .collect();
+        let valid_pixels = pixels.iter().filter(|p| p.depth > 0.0).count();
         Ok(Prepared {
             oc,
-            depth,
             pixels,
             has_color: color.is_some(),
             valid_pixels,
@@ -456,7 +455,7 @@ impl TsdfVolume {
     fn touched_blocks(&self, p: &Prepared) -> Vec<[i32; 3]> {
         let oc = &p.oc;
         let (w, h) = (oc.width, oc.height);
-        let depth = &p.depth;
+        let px = &p.pixels;
         let c2w = oc.w2c.inverse();
         let st = self.params.stride;
         let tr = self.params.sdf_trunc;
@@ -466,7 +465,7 @@ impl TsdfVolume {
             .map(|&i| {
                 let mut set = FxHashSet::default();
                 for j in (0..w).step_by(st) {
-                    let z = depth[i * w + j] as f64;
+                    let z = px[i * w + j].depth as f64;
                     if z <= 0.0 {
                         continue;
                     }
@@ -496,9 +495,8 @@ impl TsdfVolume {
 /// A frame checked and prepared for integration.
 struct Prepared {
     oc: O3dCamera,
-    /// Usable depth (0 = missing), for the allocation pass.
-    depth: Vec<f32>,
-    /// What a voxel reads from its pixel, in one place (one cache line).
+    /// What a voxel reads from its pixel, in one place (one cache line);
+    /// depth 0 = missing.
     pixels: Vec<Pixel>,
     has_color: bool,
     valid_pixels: usize,
