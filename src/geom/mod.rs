@@ -1,5 +1,6 @@
 //! Reusable geometry: nearest-neighbour index, surface sampling, point
 //! downsampling, distance statistics, rigid/similarity registration, crop volumes.
+pub mod binding;
 pub mod clean;
 pub mod cleanup;
 pub mod crop;

@@ -3,6 +3,7 @@
 //! in the files); algorithms accumulate in f64 where precision matters.
 
 pub mod attributes;
+pub mod bound;
 pub mod camera;
 pub mod crop;
 pub mod gaussians;
@@ -31,6 +32,7 @@ pub fn sh_coeffs_of(dc: &[[f32; 3]], rest: &[f32], k: usize, i: usize) -> Vec<[f
 }
 
 pub use attributes::{Column, Element, Extras, Property, ScalarData, ScalarType};
+pub use bound::BoundGaussians;
 pub use camera::{Camera, CameraModel};
 pub use crop::{Axis, CropVolume};
 pub use gaussians::Gaussians;

@@ -1,0 +1,148 @@
+//! Rebinding Gaussians to an edited or animated copy of their mesh (same
+//! faces, moved vertices): SuGaR supplement §8 and its current code.
+//!
+//! Means follow from the barycentrics and rotations from the face frame, so
+//! the only values that need updating are the in-plane scales (and, for the
+//! anisotropic rule, the complex rotations):
+//! - [`ScaleRule::MeanSide`] (the supplement's rule, the default): both
+//!   in-plane scales × (mean side length of the edited face / of the
+//!   original face); rotations unchanged, since the complex number is
+//!   relative to the face frame.
+//! - [`ScaleRule::Anisotropic`] (SuGaR's `get_edited_quaternions_and_scales`
+//!   "new method"): with a_k = v_k − centroid per face vertex,
+//!   (a) the signed in-plane angle of a_k against the edge v0 − v1 is taken
+//!   in both meshes, its change is interpolated with the Gaussian's
+//!   barycentrics and applied as an extra complex rotation;
+//!   (b) each in-plane axis R (of the original mesh) is stretched by
+//!   Σ_k b_k·√((⟨R, â_k⟩·‖a_k‖′/‖a_k‖)² + ⟨R, ô_k⟩²) with â_k = a_k/‖a_k‖
+//!   and ô_k = â_k × normal, both in the original mesh.
+//!
+//! Faces that are degenerate in either mesh keep their scales and rotations.
+//! The thickness is not changed (SuGaR keeps it constant).
+
+use super::{face_frame, face_vertices, rotation_columns, sub3};
+use crate::model::Mesh;
+use crate::model::bound::BoundGaussians;
+use splatkit_render::dual::dot3;
+
+/// How in-plane scales follow an edit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScaleRule {
+    /// × ratio of mean side lengths (supplement §8).
+    MeanSide,
+    /// SuGaR's anisotropic per-axis rule with the rotation adjustment.
+    Anisotropic,
+}
+
+fn mean_side(v: &[[f64; 3]; 3]) -> f64 {
+    (0..3)
+        .map(|k| {
+            let d = sub3(v[k], v[(k + 1) % 3]);
+            dot3(d, d).sqrt()
+        })
+        .sum::<f64>()
+        / 3.0
+}
+
+fn wrap_angle(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    let r = (a + std::f64::consts::PI).rem_euclid(t) - std::f64::consts::PI;
+    if r <= -std::f64::consts::PI { r + t } else { r }
+}
+
+/// `b` bound to `edited` instead of its own mesh. The result carries
+/// `edited` as its mesh (so rebinding can be chained). Errors when the
+/// topology differs.
+pub fn rebind(
+    b: &BoundGaussians,
+    edited: &Mesh,
+    rule: ScaleRule,
+) -> Result<BoundGaussians, String> {
+    edited.validate()?;
+    let (fr, fe) = (b.mesh.faces.len(), edited.faces.len());
+    if fr != fe {
+        return Err(format!(
+            "the edited mesh has {fe} faces but the Gaussians are bound to {fr}: rebinding needs \
+             the same faces (only vertices may move)"
+        ));
+    }
+    if let Some(f) = (0..fr).find(|&f| b.mesh.faces[f] != edited.faces[f]) {
+        return Err(format!(
+            "face {f} is {:?} in the edited mesh but {:?} in the bound mesh: rebinding needs the \
+             same faces in the same order",
+            edited.faces[f], b.mesh.faces[f]
+        ));
+    }
+    let mut out = b.clone();
+    out.mesh = edited.clone();
+    if out.mesh.vertex_colors.is_none() && b.mesh.vertices.len() == edited.vertices.len() {
+        out.mesh.vertex_colors = b.mesh.vertex_colors.clone();
+    }
+    let n = b.per_face;
+    for f in 0..fr {
+        let vr = face_vertices(&b.mesh, f);
+        let vc = face_vertices(edited, f);
+        match rule {
+            ScaleRule::MeanSide => {
+                let (sr, sc) = (mean_side(&vr), mean_side(&vc));
+                if !(sr > 0.0 && sc > 0.0 && sr.is_finite() && sc.is_finite()) {
+                    continue;
+                }
+                let l = (sc / sr).ln();
+                for i in f * n..(f + 1) * n {
+                    out.log_scales[i] = b.log_scales[i].map(|s| (s as f64 + l) as f32);
+                }
+            }
+            ScaleRule::Anisotropic => {
+                let (Some(frr), Some(frc)) = (face_frame(vr), face_frame(vc)) else {
+                    continue;
+                };
+                let cen = |v: &[[f64; 3]; 3]| -> [f64; 3] {
+                    std::array::from_fn(|k| (v[0][k] + v[1][k] + v[2][k]) / 3.0)
+                };
+                let (cr, cc) = (cen(&vr), cen(&vc));
+                let ar: [[f64; 3]; 3] = std::array::from_fn(|k| sub3(vr[k], cr));
+                let ac: [[f64; 3]; 3] = std::array::from_fn(|k| sub3(vc[k], cc));
+                let angle = |a: [f64; 3], fr: &[[f64; 3]; 3]| dot3(a, fr[2]).atan2(dot3(a, fr[1]));
+                let len = |a: [f64; 3]| dot3(a, a).sqrt();
+                let dang: [f64; 3] =
+                    std::array::from_fn(|k| wrap_angle(angle(ac[k], &frc) - angle(ar[k], &frr)));
+                let ratio: [f64; 3] = std::array::from_fn(|k| {
+                    let (l0, l1) = (len(ar[k]), len(ac[k]));
+                    if l0 > 0.0 { l1 / l0 } else { 1.0 }
+                });
+                let unit: [[f64; 3]; 3] = std::array::from_fn(|k| {
+                    let l = len(ar[k]).max(1e-300);
+                    ar[k].map(|x| x / l)
+                });
+                let orth: [[f64; 3]; 3] =
+                    std::array::from_fn(|k| splatkit_render::dual::cross3(unit[k], frr[0]));
+                for i in f * n..(f + 1) * n {
+                    let w = b.bary_of(i).map(f64::from);
+                    let c = b.complex[i].map(f64::from);
+                    let cols = rotation_columns(frr, c);
+                    let stretch = |r: [f64; 3]| -> f64 {
+                        (0..3)
+                            .map(|k| {
+                                let p = dot3(r, unit[k]) * ratio[k];
+                                let o = dot3(r, orth[k]);
+                                w[k] * (p * p + o * o).sqrt()
+                            })
+                            .sum()
+                    };
+                    let (f1, f2) = (stretch(cols[1]), stretch(cols[2]));
+                    if f1 > 0.0 && f2 > 0.0 {
+                        out.log_scales[i] = [
+                            (b.log_scales[i][0] as f64 + f1.ln()) as f32,
+                            (b.log_scales[i][1] as f64 + f2.ln()) as f32,
+                        ];
+                    }
+                    let d: f64 = (0..3).map(|k| w[k] * dang[k]).sum();
+                    let (s, co) = d.sin_cos();
+                    out.complex[i] = [(c[0] * co - c[1] * s) as f32, (c[0] * s + c[1] * co) as f32];
+                }
+            }
+        }
+    }
+    Ok(out)
+}
