@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::ops::{
-    chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles, render,
-    splat2points, tsdf_fuse,
+    bind_gaussians, chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles,
+    render, splat2points, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -48,6 +48,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Fuse depth maps (rendered from a scene, or files) into a coloured mesh: 2DGS / Open3D TSDF.
     TsdfFuse(tsdf_fuse::TsdfFuseArgs),
+    /// Bind SuGaR's flat Gaussians to a mesh's triangles, or rebind them to an edited mesh.
+    BindGaussians(bind_gaussians::BindGaussiansArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -66,6 +68,7 @@ pub fn splatkit_main() -> ! {
         Command::Render(a) => render::run(a),
         Command::TsdfFuse(a) => tsdf_fuse::run(a),
         Command::Splat2points(a) => splat2points::run(a),
+        Command::BindGaussians(a) => bind_gaussians::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -154,4 +157,11 @@ single_command!(
     splat2points::Splat2PointsArgs,
     splat2points::run,
     "A 3DGS scene to oriented points on its density level set (SuGaR), for `poisson`."
+);
+single_command!(
+    bind_gaussians_main,
+    "bind-gaussians",
+    bind_gaussians::BindGaussiansArgs,
+    bind_gaussians::run,
+    "Bind SuGaR's flat Gaussians to a mesh's triangles (1, 3, 4 or 6 per face), or rebind them to an edited mesh."
 );

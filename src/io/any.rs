@@ -21,8 +21,9 @@ use std::path::{Path, PathBuf};
 
 use crate::io::detect::{FileFormat, PlyKind};
 use crate::io::ply::{Format, Header};
+use crate::io::source::shown;
 use crate::io::{Input, gltf, obj, off, ply, read_input, torch_pt, write_output};
-use crate::model::{Gaussians, Mesh, PointCloud, Scene, SceneKind, TriangleSoup};
+use crate::model::{BoundGaussians, Gaussians, Mesh, PointCloud, Scene, SceneKind, TriangleSoup};
 use crate::{Error, Result};
 
 /// An input read once (file or stdin), with its detected format and, for a
@@ -196,6 +197,23 @@ pub fn load_gaussians(path: &Path, command: &str) -> Result<Gaussians> {
         Scene::Gaussians(g) => Ok(g),
         _ => unreachable!("load_kinds returns an accepted kind"),
     }
+}
+
+/// Loads Gaussians bound to a mesh (a file written by `bind-gaussians` or
+/// `refine`): the binding, checked for consistency, and the file's standard
+/// 3DGS values.
+pub fn load_bound(path: &Path, command: &str) -> Result<(BoundGaussians, Gaussians)> {
+    let g = load_gaussians(path, command)?;
+    let b = ply::bound::detach(&shown(path, false), &g)?;
+    Ok((b, g))
+}
+
+/// Writes Gaussians as a binary little-endian 3DGS PLY, atomically
+/// (`-` = stdout).
+pub fn save_gaussians(path: &Path, g: &Gaussians) -> Result<()> {
+    write_output(path, |w| {
+        ply::gaussians::write_gaussians(w, g, Format::BinaryLittleEndian)
+    })
 }
 
 /// Loads points: a point cloud, or a mesh's vertices (with their normals

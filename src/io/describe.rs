@@ -33,6 +33,17 @@ pub struct ElementInfo {
     pub properties: Vec<PropertyInfo>,
 }
 
+/// The binding of bound Gaussians, as `info` reports it.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct BindingInfo {
+    /// Vertices of the bound mesh.
+    pub mesh_vertices: u64,
+    /// Faces of the bound mesh.
+    pub mesh_faces: u64,
+    /// Gaussians per face (face-major order).
+    pub per_face: u64,
+}
+
 /// Everything `info` says about one file.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct FileInfo {
@@ -75,6 +86,9 @@ pub struct FileInfo {
     /// Bytes after the data the header declares (ignored by readers).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub trailing_bytes: Option<usize>,
+    /// For Gaussians bound to a mesh (`bind-gaussians`): the binding.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub binding: Option<BindingInfo>,
     /// Present attributes: `normals`, `vertex-colors`, `face-colors`, …
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub attributes: Vec<String>,
@@ -240,6 +254,19 @@ fn describe_ply(opened: &any::Opened, info: &mut FileInfo) -> Result<()> {
                 .iter()
                 .find(|(m, _)| *m == rest)
                 .map(|(_, d)| *d);
+            let bound_faces = h.element(crate::io::ply::bound::MESH_FACE);
+            let bound_verts = h.element(crate::io::ply::bound::MESH_VERTEX);
+            let has_binding = h.element("vertex").is_some_and(|v| {
+                v.index_of("face_index").is_some() && v.index_of("rot_re").is_some()
+            });
+            if let (Some(f), Some(v), true) = (bound_faces, bound_verts, has_binding) {
+                let g = h.element("vertex").map_or(0, |v| v.count);
+                info.binding = Some(BindingInfo {
+                    mesh_vertices: v.count,
+                    mesh_faces: f.count,
+                    per_face: if f.count > 0 { g / f.count } else { 0 },
+                });
+            }
         }
         PlyKind::CompressedGaussians => info.gaussians = count("vertex"),
         PlyKind::TriangleSoup => {
@@ -303,6 +330,15 @@ pub fn render_text(i: &FileInfo) -> String {
         if let Some(v) = v {
             let _ = writeln!(s, "  {:<11} {}", format!("{label}:"), thousands(v));
         }
+    }
+    if let Some(b) = &i.binding {
+        let _ = writeln!(
+            s,
+            "  bound to:   a mesh of {} vertices and {} faces, {} Gaussian(s) per face (SuGaR binding)",
+            thousands(b.mesh_vertices as usize),
+            thousands(b.mesh_faces as usize),
+            b.per_face
+        );
     }
     if let Some(d) = i.sh_degree {
         let active = i

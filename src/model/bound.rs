@@ -12,8 +12,9 @@
 //! - SH as in [`super::Gaussians`]: `sh_dc[i]` and coefficient-major
 //!   `sh_rest`.
 //!
-//! The third scale (along the face normal) is `thickness`, a constant in world
-//! units (SuGaR: the cameras' spatial extent / 10⁶). The mesh itself (its
+//! The third scale (along the face normal) is exp(`log_thickness`), a
+//! constant in world units (SuGaR: the cameras' spatial extent / 10⁶), kept
+//! as its log like the other scales so files round-trip bit for bit. The mesh itself (its
 //! vertices move during refinement) is part of the model; means and
 //! rotations are derived from it by [`crate::geom::binding`].
 
@@ -64,8 +65,9 @@ pub struct BoundGaussians {
     pub mesh: Mesh,
     /// Gaussians per face, one of [`PER_FACE_CHOICES`].
     pub per_face: usize,
-    /// Standard deviation along the face normal, world units (not learned).
-    pub thickness: f32,
+    /// Log of the standard deviation along the face normal (world units; not
+    /// learned).
+    pub log_thickness: f32,
     /// In-plane rotation (x, y) per Gaussian, unnormalised.
     pub complex: Vec<[f32; 2]>,
     /// Log in-plane standard deviations per Gaussian.
@@ -137,10 +139,10 @@ impl BoundGaussians {
                 ));
             }
         }
-        if !(self.thickness.is_finite() && self.thickness > 0.0) {
+        if !self.log_thickness.is_finite() {
             return Err(format!(
-                "thickness {} is not a positive number",
-                self.thickness
+                "log thickness {} is not a finite number",
+                self.log_thickness
             ));
         }
         Ok(())

@@ -21,6 +21,7 @@
 //! Gaussian still renders (at its mean, axis-aligned) instead of producing
 //! NaNs that would poison the whole image.
 
+pub mod colors;
 pub mod grad;
 pub mod rebind;
 
@@ -171,6 +172,12 @@ pub fn bind(
     })?;
     let radius = circle_radius(n).expect("same choices as the table");
     mesh.validate()?;
+    if !(opts.thickness > 0.0 && opts.thickness.is_finite()) {
+        return Err(format!(
+            "thickness {} is not a positive number",
+            opts.thickness
+        ));
+    }
     if mesh.faces.is_empty() {
         return Err("the mesh has no faces to bind Gaussians to".into());
     }
@@ -189,7 +196,7 @@ pub fn bind(
     let mut out = BoundGaussians {
         mesh: mesh.clone(),
         per_face: n,
-        thickness: opts.thickness,
+        log_thickness: opts.thickness.ln(),
         sh_degree: opts.sh_degree,
         ..Default::default()
     };
@@ -238,7 +245,7 @@ pub fn materialize(b: &BoundGaussians) -> Gaussians {
             )
         })
         .unzip();
-    let lt = b.thickness.ln();
+    let lt = b.log_thickness;
     Gaussians {
         means,
         normals: None,

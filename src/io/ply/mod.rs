@@ -10,6 +10,7 @@
 //! Unknown elements and properties survive read-modify-write through
 //! [`crate::model::Extras`].
 
+pub mod bound;
 mod common;
 pub mod gaussians;
 pub mod header;

@@ -1,0 +1,3 @@
+fn main() {
+    splatkit::app::bind_gaussians_main()
+}

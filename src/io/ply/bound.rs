@@ -1,0 +1,282 @@
+//! The bound-Gaussians PLY: a standard 3DGS PLY that also carries the
+//! binding, so it is self-contained (docs/formats.md, "Bound Gaussians").
+//!
+//! - `vertex` (first element, as graphdeco's `load_ply` and SuperSplat read
+//!   it): the 3DGS properties of the materialised Gaussians (means, w-first
+//!   unit quaternions, `scale_0` = ln thickness, `scale_1`/`scale_2` = the two
+//!   learned in-plane log scales, opacity logit, SH), followed by the
+//!   binding: `face_index` (int), `bary_0 bary_1 bary_2` (float, the table
+//!   row), `rot_re rot_im` (float, the unnormalised complex rotation);
+//! - `bound_vertex` (float x y z, optional uchar red green blue alpha) and
+//!   `bound_face` (`list uchar int vertex_indices`): the mesh the Gaussians
+//!   are bound to, as extra elements after `vertex`, which 3DGS readers skip;
+//! - a header comment `splatkit bound-gaussians per_face N`.
+//!
+//! Reading checks every part against the others (counts, the table, the face
+//! order, the thickness) and names the first inconsistency.
+
+use crate::model::bound::{BoundGaussians, barycentrics};
+use crate::model::{Column, Element, Gaussians, Mesh, Property, ScalarData, ScalarType};
+use crate::{Error, Result};
+
+/// Names of the binding properties on `vertex`.
+pub const BINDING_PROPERTIES: [&str; 6] = [
+    "face_index",
+    "bary_0",
+    "bary_1",
+    "bary_2",
+    "rot_re",
+    "rot_im",
+];
+/// Element holding the bound mesh's vertices.
+pub const MESH_VERTEX: &str = "bound_vertex";
+/// Element holding the bound mesh's faces.
+pub const MESH_FACE: &str = "bound_face";
+const COMMENT: &str = "splatkit bound-gaussians per_face";
+
+/// True when a vertex property list carries a binding (`face_index` and
+/// `rot_re`), i.e. the Gaussians are bound to a mesh.
+pub fn is_bound(g: &Gaussians) -> bool {
+    ["face_index", "rot_re"]
+        .iter()
+        .all(|n| g.extras.item.iter().any(|p| p.name == *n))
+}
+
+fn f32_col(v: impl IntoIterator<Item = f32>) -> Column {
+    Column::Scalar(ScalarData::F32(v.into_iter().collect()))
+}
+
+/// `materialized` (from `geom::binding::materialize(b)`) with the binding
+/// and the mesh attached, ready for the 3DGS PLY writer.
+pub fn attach(b: &BoundGaussians, mut materialized: Gaussians) -> Gaussians {
+    let n = b.len();
+    let prop = |name: &str, data: Column| Property {
+        name: name.into(),
+        data,
+    };
+    let bary: Vec<[f32; 3]> = (0..n).map(|i| b.bary_of(i)).collect();
+    let item = &mut materialized.extras.item;
+    item.retain(|p| !BINDING_PROPERTIES.contains(&p.name.as_str()));
+    item.push(prop(
+        "face_index",
+        Column::Scalar(ScalarData::I32(
+            (0..n).map(|i| b.face_of(i) as i32).collect(),
+        )),
+    ));
+    for k in 0..3 {
+        item.push(prop(
+            &format!("bary_{k}"),
+            f32_col(bary.iter().map(|w| w[k])),
+        ));
+    }
+    item.push(prop("rot_re", f32_col(b.complex.iter().map(|c| c[0]))));
+    item.push(prop("rot_im", f32_col(b.complex.iter().map(|c| c[1]))));
+    let m = &b.mesh;
+    let mut ve = Element::new(MESH_VERTEX, m.vertices.len());
+    for (k, name) in ["x", "y", "z"].iter().enumerate() {
+        ve.push(*name, f32_col(m.vertices.iter().map(|v| v[k])));
+    }
+    if let Some(c) = &m.vertex_colors {
+        for (k, name) in ["red", "green", "blue", "alpha"].iter().enumerate() {
+            ve.push(
+                *name,
+                Column::Scalar(ScalarData::U8(c.iter().map(|c| c[k]).collect())),
+            );
+        }
+    }
+    let mut fe = Element::new(MESH_FACE, m.faces.len());
+    fe.push(
+        "vertex_indices",
+        Column::List {
+            count_type: ScalarType::U8,
+            offsets: (0..=m.faces.len()).map(|i| 3 * i).collect(),
+            values: ScalarData::I32(m.faces.iter().flatten().map(|&v| v as i32).collect()),
+        },
+    );
+    let els = &mut materialized.extras.elements;
+    els.retain(|e| e.name != MESH_VERTEX && e.name != MESH_FACE);
+    els.push(ve);
+    els.push(fe);
+    let c = &mut materialized.extras.comments;
+    c.retain(|c| !c.starts_with(COMMENT));
+    c.push(format!("{COMMENT} {}", b.per_face));
+    materialized
+}
+
+fn bad(name: &str, msg: impl std::fmt::Display) -> Error {
+    Error::format(name, format!("bound Gaussians: {msg}"))
+}
+
+fn scalar_f64(name: &str, e: &Element, prop: &str) -> Result<Vec<f64>> {
+    match e.property(prop) {
+        Some(Column::Scalar(d)) => Ok(d.to_f64()),
+        Some(_) => Err(bad(
+            name,
+            format!("{}.{prop} is a list, expected a scalar", e.name),
+        )),
+        None => Err(bad(
+            name,
+            format!("element {} has no property {prop}", e.name),
+        )),
+    }
+}
+
+/// The binding of a 3DGS file written by [`attach`]: the model, checked
+/// for consistency. `g` keeps its standard values (means and rotations are
+/// for the caller to compare with the mesh if it wishes).
+pub fn detach(name: &str, g: &Gaussians) -> Result<BoundGaussians> {
+    let n = g.len();
+    let item = |p: &str| -> Result<Vec<f64>> {
+        match g.extras.item.iter().find(|x| x.name == p) {
+            Some(Property {
+                data: Column::Scalar(d),
+                ..
+            }) => Ok(d.to_f64()),
+            Some(_) => Err(bad(name, format!("vertex property {p} is a list"))),
+            None => Err(bad(
+                name,
+                format!(
+                    "vertex property {p} is missing (a bound file has {}; this looks like \
+                     plain Gaussians: bind them with `bind-gaussians MESH`)",
+                    BINDING_PROPERTIES.join(", ")
+                ),
+            )),
+        }
+    };
+    let el = |e: &str| -> Result<&Element> {
+        g.extras
+            .elements
+            .iter()
+            .find(|x| x.name == e)
+            .ok_or_else(|| bad(name, format!("element {e} (the bound mesh) is missing")))
+    };
+    let face_index = item("face_index")?;
+    let bary: Vec<Vec<f64>> = (0..3)
+        .map(|k| item(&format!("bary_{k}")))
+        .collect::<Result<_>>()?;
+    let (re, im) = (item("rot_re")?, item("rot_im")?);
+    let ve = el(MESH_VERTEX)?;
+    let fe = el(MESH_FACE)?;
+    let xyz: Vec<Vec<f64>> = ["x", "y", "z"]
+        .iter()
+        .map(|p| scalar_f64(name, ve, p))
+        .collect::<Result<_>>()?;
+    let vertices: Vec<[f32; 3]> = (0..ve.count)
+        .map(|i| [xyz[0][i] as f32, xyz[1][i] as f32, xyz[2][i] as f32])
+        .collect();
+    let vertex_colors = if ve.property("red").is_some() {
+        let ch: Vec<Vec<f64>> = ["red", "green", "blue", "alpha"]
+            .iter()
+            .map(|p| scalar_f64(name, ve, p))
+            .collect::<Result<_>>()?;
+        Some(
+            (0..ve.count)
+                .map(|i| std::array::from_fn(|k| ch[k][i].clamp(0.0, 255.0) as u8))
+                .collect(),
+        )
+    } else {
+        None
+    };
+    let faces: Vec<[u32; 3]> = match fe.property("vertex_indices") {
+        Some(Column::List {
+            offsets, values, ..
+        }) => {
+            let vals = values.to_f64();
+            (0..fe.count)
+                .map(|f| {
+                    let (a, b) = (offsets[f], offsets[f + 1]);
+                    if b - a != 3 {
+                        return Err(bad(
+                            name,
+                            format!("{MESH_FACE} {f} has {} vertices, expected 3", b - a),
+                        ));
+                    }
+                    let idx = [vals[a], vals[a + 1], vals[a + 2]];
+                    if idx.iter().any(|&v| v < 0.0 || v >= ve.count as f64) {
+                        return Err(bad(
+                            name,
+                            format!(
+                                "{MESH_FACE} {f} references vertex {idx:?} outside the {} of {MESH_VERTEX}",
+                                ve.count
+                            ),
+                        ));
+                    }
+                    Ok(idx.map(|v| v as u32))
+                })
+                .collect::<Result<_>>()?
+        }
+        _ => {
+            return Err(bad(name, format!("{MESH_FACE} has no vertex_indices list")));
+        }
+    };
+    let nf = faces.len();
+    if nf == 0 || n % nf != 0 {
+        return Err(bad(
+            name,
+            format!("{n} Gaussians for {nf} bound faces: expected faces × 1, 3, 4 or 6"),
+        ));
+    }
+    let per_face = n / nf;
+    let table = barycentrics(per_face).ok_or_else(|| {
+        bad(
+            name,
+            format!(
+                "{n} Gaussians on {nf} faces is {per_face} per face; SuGaR defines 1, 3, 4 or 6"
+            ),
+        )
+    })?;
+    for i in 0..n {
+        if face_index[i] != (i / per_face) as f64 {
+            return Err(bad(
+                name,
+                format!(
+                    "Gaussian {i} has face_index {} but face-major order with {per_face} per face \
+                     puts it on face {}",
+                    face_index[i],
+                    i / per_face
+                ),
+            ));
+        }
+        let want = table[i % per_face];
+        for k in 0..3 {
+            if (bary[k][i] - want[k] as f64).abs() > 1e-6 {
+                return Err(bad(
+                    name,
+                    format!(
+                        "Gaussian {i} has bary_{k} = {} but the {per_face}-per-face table gives {}",
+                        bary[k][i], want[k]
+                    ),
+                ));
+            }
+        }
+    }
+    let thickness = g.log_scales.first().map_or(1.0, |s| s[0]);
+    if let Some(i) = g.log_scales.iter().position(|s| s[0] != thickness) {
+        return Err(bad(
+            name,
+            format!(
+                "scale_0 of Gaussian {i} is {} but Gaussian 0 has {thickness}: the thickness \
+                 of bound Gaussians is one constant",
+                g.log_scales[i][0]
+            ),
+        ));
+    }
+    let b = BoundGaussians {
+        mesh: Mesh {
+            vertices,
+            faces,
+            vertex_colors,
+            ..Default::default()
+        },
+        per_face,
+        log_thickness: thickness,
+        complex: (0..n).map(|i| [re[i] as f32, im[i] as f32]).collect(),
+        log_scales: g.log_scales.iter().map(|s| [s[1], s[2]]).collect(),
+        opacity_logits: g.opacity_logits.clone(),
+        sh_degree: g.sh_degree,
+        sh_dc: g.sh_dc.clone(),
+        sh_rest: g.sh_rest.clone(),
+    };
+    b.validate().map_err(|m| bad(name, m))?;
+    Ok(b)
+}

@@ -1,0 +1,212 @@
+//! `bind-gaussians`: SuGaR's flat Gaussians bound to the triangles of a mesh
+//! ([`crate::geom::binding`]), written as a standard 3DGS PLY that carries
+//! the binding and the mesh (docs/bind-gaussians.md, docs/formats.md); and
+//! rebinding such a file to an edited copy of its mesh.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use serde_json::json;
+
+use crate::cli::{Common, positive_f64, shown, usage};
+use crate::geom::binding::colors::dc_from_gaussians;
+use crate::geom::binding::rebind::{ScaleRule, rebind};
+use crate::geom::binding::{
+    BindOptions, THICKNESS_FACTOR, bind, camera_extent, materialize, mean_of, mesh_radius,
+};
+use crate::io::any::{load, load_bound, load_gaussians, load_mesh, save_gaussians};
+use crate::io::cameras::read_cameras;
+use crate::io::ply::bound::{attach, is_bound};
+use crate::model::{BoundGaussians, Scene};
+
+/// How in-plane scales follow an edit (`--scale-rule`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ScaleRuleArg {
+    /// × mean side length after / before (SuGaR supplement §8).
+    MeanSide,
+    /// SuGaR's current per-axis rule, with the in-plane rotation adjustment.
+    Anisotropic,
+}
+
+/// Arguments of `bind-gaussians`.
+#[derive(Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  bind-gaussians mesh.ply -o bound.ply                         # 1 Gaussian per triangle, vertex colours
+  bind-gaussians mesh.ply --per-triangle 6 --cameras output/garden/cameras.json -o bound.ply
+  bind-gaussians mesh.ply --colors-from output/garden/point_cloud/iteration_7000/point_cloud.ply -o bound.ply
+  bind-gaussians bound.ply --rebind edited_mesh.obj -o bound_edited.ply
+  bind-gaussians bound.ply --rebind pose_042.ply --scale-rule anisotropic -o frame_042.ply
+
+The output opens in any 3DGS viewer (SuperSplat, SIBR) and in `render`; it also carries
+the binding (face_index, bary_0..2, rot_re, rot_im) and the mesh (elements bound_vertex,
+bound_face), so `--rebind` and `refine` need nothing else.")]
+pub struct BindGaussiansArgs {
+    /// A mesh to bind to (PLY, OBJ, OFF, glTF/GLB), or, with --rebind, a bound
+    /// Gaussians PLY; `-` = stdin.
+    pub input: PathBuf,
+    /// Output bound Gaussians (3DGS PLY); `-` = stdout.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Gaussians per triangle: SuGaR's tables exist for 1, 3, 4 and 6.
+    #[arg(long, default_value_t = 1, value_name = "N", conflicts_with = "rebind")]
+    pub per_triangle: usize,
+    /// Standard deviation along the face normal, world units (default:
+    /// 1e-6 × the cameras' extent with --cameras, as SuGaR, else 1e-6 × half
+    /// the mesh's bounding-box diagonal).
+    #[arg(long, value_parser = positive_f64, conflicts_with = "rebind")]
+    pub thickness: Option<f64>,
+    /// Cameras (any format splatkit reads) whose extent sets the thickness.
+    #[arg(long, value_name = "CAMS", conflicts_with = "rebind")]
+    pub cameras: Option<PathBuf>,
+    /// Take each Gaussian's colour (SH DC) from a 3DGS scene: the source
+    /// Gaussian of highest density weight among the 16 nearest centres.
+    #[arg(long, value_name = "SCENE.ply", conflicts_with = "rebind")]
+    pub colors_from: Option<PathBuf>,
+    /// SH degree of the bound model (higher coefficients start at 0).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(0..=3))]
+    pub sh_degree: u8,
+    /// Rebind INPUT (a bound PLY) to this edited mesh (same faces, moved vertices).
+    #[arg(long, value_name = "EDITED_MESH")]
+    pub rebind: Option<PathBuf>,
+    /// How in-plane scales follow the edit (with --rebind).
+    #[arg(long, value_enum, default_value_t = ScaleRuleArg::MeanSide, requires = "rebind")]
+    pub scale_rule: ScaleRuleArg,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// Writes `b` as a bound 3DGS PLY.
+pub fn save_bound(path: &std::path::Path, b: &BoundGaussians) -> crate::Result<()> {
+    save_gaussians(path, &attach(b, materialize(b)))
+}
+
+/// `bind-gaussians` entry point.
+pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
+    args.common.init()?;
+    crate::cli::check_output_file(&args.output, "-o")?;
+    args.common.check_stdout_free(&args.output)?;
+    crate::cli::check_binary_stdout(&args.output)?;
+    if crate::model::bound::barycentrics(args.per_triangle).is_none() {
+        return Err(usage(format!(
+            "--per-triangle {}: SuGaR defines Gaussians-per-triangle tables for 1, 3, 4 and 6 only",
+            args.per_triangle
+        )));
+    }
+    let t0 = std::time::Instant::now();
+    let (b, report) = match &args.rebind {
+        Some(edited) => {
+            let (b, _) = load_bound(&args.input, "bind-gaussians --rebind")?;
+            let mesh = load_mesh(edited, "bind-gaussians --rebind")?;
+            let rule = match args.scale_rule {
+                ScaleRuleArg::MeanSide => ScaleRule::MeanSide,
+                ScaleRuleArg::Anisotropic => ScaleRule::Anisotropic,
+            };
+            let out = rebind(&b, &mesh, rule)
+                .map_err(|m| anyhow::anyhow!("{}: {m}", shown(edited, false)))?;
+            let moved = b
+                .mesh
+                .vertices
+                .iter()
+                .zip(&mesh.vertices)
+                .filter(|(a, b)| a != b)
+                .count();
+            (
+                out,
+                json!({"mode": "rebind", "edited_mesh": shown(edited, false),
+                       "scale_rule": args.scale_rule.to_possible_value().map(|v| v.get_name().to_string()), "moved_vertices": moved}),
+            )
+        }
+        None => {
+            let scene = load(&args.input)?;
+            let mesh = match scene {
+                Scene::Mesh(m) => m,
+                Scene::Gaussians(g) if is_bound(&g) => {
+                    return Err(usage(format!(
+                        "{} already holds bound Gaussians: give --rebind EDITED_MESH to rebind \
+                         them, or bind a mesh",
+                        shown(&args.input, false)
+                    )));
+                }
+                other => anyhow::bail!(
+                    "{}: bind-gaussians takes a mesh, but the file holds {}",
+                    shown(&args.input, false),
+                    other.kind().phrase()
+                ),
+            };
+            let (thickness, thickness_from) = match (args.thickness, &args.cameras) {
+                (Some(t), _) => (t, "--thickness".to_string()),
+                (None, Some(c)) => {
+                    let cams = read_cameras(c)?;
+                    let centres: Vec<[f64; 3]> =
+                        cams.iter().map(|c| c.center().to_array()).collect();
+                    let e = camera_extent(&centres).with_context(|| {
+                        format!(
+                            "{}: the cameras share one centre, so they give no extent; give \
+                             --thickness",
+                            shown(c, false)
+                        )
+                    })?;
+                    (e * THICKNESS_FACTOR, format!("1e-6 × camera extent {e:.6}"))
+                }
+                (None, None) => {
+                    let r = mesh_radius(&mesh);
+                    if !(r > 0.0 && r.is_finite()) {
+                        anyhow::bail!(
+                            "{}: the mesh has no extent to derive a thickness from; give --thickness",
+                            shown(&args.input, false)
+                        );
+                    }
+                    (
+                        r * THICKNESS_FACTOR,
+                        format!("1e-6 × mesh bounding radius {r:.6}"),
+                    )
+                }
+            };
+            let opts = BindOptions {
+                per_face: args.per_triangle,
+                thickness: thickness as f32,
+                sh_degree: args.sh_degree as usize,
+            };
+            let mut b = bind(&mesh, &opts, None)
+                .map_err(|m| anyhow::anyhow!("{}: {m}", shown(&args.input, false)))?;
+            let mut colors = if mesh.vertex_colors.is_some() {
+                "mesh vertex colours"
+            } else {
+                "grey (the mesh has no vertex colours)"
+            };
+            if let Some(src) = &args.colors_from {
+                let g = load_gaussians(src, "bind-gaussians --colors-from")?;
+                let at: Vec<[f64; 3]> = (0..b.len()).map(|i| mean_of(&b, i)).collect();
+                b.sh_dc = dc_from_gaussians(&at, &g)
+                    .with_context(|| format!("colours from {}", shown(src, false)))?;
+                colors = "highest-weight source Gaussian";
+            }
+            (
+                b,
+                json!({"mode": "bind", "thickness": thickness, "thickness_from": thickness_from,
+                       "colors": colors}),
+            )
+        }
+    };
+    save_bound(&args.output, &b)?;
+    args.common.say(format!(
+        "bind-gaussians: {} Gaussians on {} faces ({} per face) -> {} in {:.2} s",
+        b.len(),
+        b.mesh.faces.len(),
+        b.per_face,
+        shown(&args.output, true),
+        t0.elapsed().as_secs_f64()
+    ));
+    args.common.emit_json(&json!({
+        "input": shown(&args.input, false),
+        "output": shown(&args.output, true),
+        "gaussians": b.len(),
+        "faces": b.mesh.faces.len(),
+        "vertices": b.mesh.vertices.len(),
+        "per_face": b.per_face,
+        "thickness": (b.log_thickness as f64).exp(),
+        "report": report,
+    }))?;
+    Ok(())
+}
