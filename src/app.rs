@@ -5,7 +5,7 @@
 use clap::{Parser, Subcommand};
 
 use crate::ops::{
-    bind_gaussians, chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles,
+    bind_gaussians, chamfer, refine, clean, decimate, demo, export_off, info, poisson, prune_triangles,
     render, splat2points, tsdf_fuse,
 };
 
@@ -50,6 +50,8 @@ pub enum Command {
     TsdfFuse(tsdf_fuse::TsdfFuseArgs),
     /// Bind SuGaR's flat Gaussians to a mesh's triangles, or rebind them to an edited mesh.
     BindGaussians(bind_gaussians::BindGaussiansArgs),
+    /// Refine bound Gaussians and their mesh against photos (SuGaR), with held-out PSNR / SSIM.
+    Refine(refine::RefineArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -69,6 +71,7 @@ pub fn splatkit_main() -> ! {
         Command::TsdfFuse(a) => tsdf_fuse::run(a),
         Command::Splat2points(a) => splat2points::run(a),
         Command::BindGaussians(a) => bind_gaussians::run(a),
+        Command::Refine(a) => refine::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -164,4 +167,11 @@ single_command!(
     bind_gaussians::BindGaussiansArgs,
     bind_gaussians::run,
     "Bind SuGaR's flat Gaussians to a mesh's triangles (1, 3, 4 or 6 per face), or rebind them to an edited mesh."
+);
+single_command!(
+    refine_main,
+    "refine",
+    refine::RefineArgs,
+    refine::run,
+    "Refine Gaussians bound to a mesh, and the mesh, against photos (SuGaR's refinement)."
 );

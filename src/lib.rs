@@ -15,5 +15,6 @@ pub mod model;
 pub mod ops;
 #[doc(hidden)]
 pub mod testing;
+pub mod train;
 
 pub use error::{Error, Result};

@@ -69,6 +69,28 @@ impl Adam {
         self.step
     }
 
+    /// The first and second moment buffers (for checkpoints).
+    pub fn moments(&self) -> (&[f32], &[f32]) {
+        (&self.m, &self.v)
+    }
+
+    /// Restores a checkpointed state: moments of the buffer's length and the
+    /// step count; `Err` when the lengths disagree.
+    pub fn restore(&mut self, m: Vec<f32>, v: Vec<f32>, step: u64) -> Result<(), String> {
+        if m.len() != self.m.len() || v.len() != self.v.len() {
+            return Err(format!(
+                "optimiser state holds {} / {} moments, the model needs {}",
+                m.len(),
+                v.len(),
+                self.m.len()
+            ));
+        }
+        self.m = m;
+        self.v = v;
+        self.step = step;
+        Ok(())
+    }
+
     /// One update of `params` with `grads` (same length as at creation).
     pub fn step(&mut self, params: &mut [f32], grads: &[f32]) {
         assert_eq!(params.len(), self.m.len(), "parameter buffer changed size");

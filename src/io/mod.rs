@@ -16,5 +16,6 @@ pub mod ply;
 pub mod source;
 pub mod tnt;
 pub mod torch_pt;
+pub mod views;
 
 pub use source::{Input, StagedDir, read_input, write_output};

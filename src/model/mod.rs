@@ -16,6 +16,7 @@ pub mod rng;
 pub mod scene;
 pub mod transform;
 pub mod triangle_soup;
+pub mod view;
 
 /// SH coefficients of item `i`, coefficient-major with the DC term at k = 0,
 /// from a DC array and a coefficient-major `rest` array with `k` higher-order
@@ -44,3 +45,4 @@ pub use point_cloud::PointCloud;
 pub use scene::{Scene, SceneKind};
 pub use transform::Similarity;
 pub use triangle_soup::TriangleSoup;
+pub use view::View;

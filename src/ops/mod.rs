@@ -11,6 +11,7 @@ pub mod export_off;
 pub mod info;
 pub mod poisson;
 pub mod prune_triangles;
+pub mod refine;
 pub mod render;
 pub mod splat2points;
 pub mod tsdf_fuse;

@@ -1,0 +1,117 @@
+//! Optimiser state as bytes, for checkpoint folders (the op writes them
+//! through `io`): a small header, then per parameter group its name, length,
+//! first and second moments (f32 little-endian).
+//!
+//! Layout: magic `SPKADAM1`, u64 step, u32 group count; per group: u32 name
+//! length, the UTF-8 name, u64 length n, n × f32 m, n × f32 v.
+
+use crate::{Error, Result};
+
+const MAGIC: &[u8; 8] = b"SPKADAM1";
+
+/// One group's saved moments.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupState {
+    pub name: String,
+    pub m: Vec<f32>,
+    pub v: Vec<f32>,
+}
+
+/// Encodes the step and the groups.
+pub fn encode(step: u64, groups: &[GroupState]) -> Vec<u8> {
+    let total: usize = groups.iter().map(|g| 8 * g.m.len() + g.name.len() + 12).sum();
+    let mut out = Vec::with_capacity(20 + total);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&step.to_le_bytes());
+    out.extend_from_slice(&(groups.len() as u32).to_le_bytes());
+    for g in groups {
+        out.extend_from_slice(&(g.name.len() as u32).to_le_bytes());
+        out.extend_from_slice(g.name.as_bytes());
+        out.extend_from_slice(&(g.m.len() as u64).to_le_bytes());
+        for x in g.m.iter().chain(&g.v) {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Decodes [`encode`]'s bytes; `name` is the file for errors. Lengths are
+/// checked against the bytes left before anything is allocated.
+pub fn decode(name: &str, b: &[u8]) -> Result<(u64, Vec<GroupState>)> {
+    let bad = |at: usize, what: &str| Error::format(name, format!("byte {at}: {what}"));
+    if b.len() < 20 || &b[..8] != MAGIC {
+        return Err(bad(0, "not a splatkit optimiser state (magic SPKADAM1)"));
+    }
+    let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().expect("8 bytes"));
+    let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().expect("4 bytes"));
+    let step = u64_at(8);
+    let count = u32_at(16) as usize;
+    let mut o = 20;
+    let mut groups = Vec::new();
+    for gi in 0..count {
+        if o + 4 > b.len() {
+            return Err(bad(o, &format!("group {gi} is cut short")));
+        }
+        let nl = u32_at(o) as usize;
+        o += 4;
+        if nl > 256 || o + nl + 8 > b.len() {
+            return Err(bad(o, &format!("group {gi}: bad name length {nl}")));
+        }
+        let gname = std::str::from_utf8(&b[o..o + nl])
+            .map_err(|_| bad(o, "group name is not UTF-8"))?
+            .to_string();
+        o += nl;
+        let n = u64_at(o) as usize;
+        o += 8;
+        if n > (b.len() - o) / 8 {
+            return Err(bad(
+                o,
+                &format!("group {gname} declares {n} values, more than the file holds"),
+            ));
+        }
+        let read = |from: usize| -> Vec<f32> {
+            b[from..from + 4 * n]
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+                .collect()
+        };
+        groups.push(GroupState {
+            name: gname,
+            m: read(o),
+            v: read(o + 4 * n),
+        });
+        o += 8 * n;
+    }
+    if o != b.len() {
+        return Err(bad(o, "trailing bytes after the last group"));
+    }
+    Ok((step, groups))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Round trip, and truncations are errors (never panics or huge
+    /// allocations).
+    #[test]
+    fn round_trip_and_truncation() {
+        let g = vec![
+            GroupState {
+                name: "a".into(),
+                m: vec![1.0, -2.5],
+                v: vec![0.5, 3.0],
+            },
+            GroupState {
+                name: "vertices".into(),
+                m: vec![],
+                v: vec![],
+            },
+        ];
+        let b = encode(42, &g);
+        assert_eq!(decode("x", &b).unwrap(), (42, g));
+        for cut in 0..b.len() {
+            assert!(decode("x", &b[..cut]).is_err());
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! Optimisation loops on the `render` crate.
+//!
+//! - [`refine`]: SuGaR's refinement of Gaussians bound to a mesh (joint Adam
+//!   on vertices, complex rotations, in-plane scales, opacities and SH);
+//! - [`photometric`]: the photometric loss (0.8·L1 + 0.2·D-SSIM, masks) and
+//!   the held-out evaluation (PSNR / SSIM) every loop shares;
+//! - [`schedule`]: the seeded view order and the train / test split;
+//! - [`checkpoint`]: optimiser state on disk, so `--resume` continues bit
+//!   for bit.
+
+pub mod checkpoint;
+pub mod photometric;
+pub mod refine;
+pub mod schedule;
