@@ -30,13 +30,30 @@ pub enum Method {
     Depth,
 }
 
-/// Depth source of the level-set method.
+/// Depth source of the level-set method (where each ray starts; see
+/// [`DepthSource`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum DepthArg {
     /// Camera-facing ±2σ diamonds in a z-buffer (SuGaR's default).
     Diamonds,
-    /// The alpha-blended median depth.
+    /// SuGaR's `use_gaussian_depth` mode: the 3DGS-blended view z over a
+    /// background of −1 (Σwz − T, pulled toward the camera where the alpha
+    /// is below 1); density over the 16 centres nearest the ray's point.
     Gaussian,
+    /// The 3DGS alpha-blended median depth where the alpha reaches 0.5 (not
+    /// a SuGaR mode).
+    Median,
+}
+
+impl DepthArg {
+    /// The library's depth source.
+    pub fn source(self) -> DepthSource {
+        match self {
+            DepthArg::Diamonds => DepthSource::Diamonds,
+            DepthArg::Gaussian => DepthSource::Gaussian,
+            DepthArg::Median => DepthSource::Median,
+        }
+    }
 }
 
 /// Arguments of `splat2points`.
@@ -69,7 +86,9 @@ pub struct Splat2PointsArgs {
         value_parser = parse_level
     )]
     pub level: Vec<f32>,
-    /// Depth used to find the surface along each ray (levelset).
+    /// Depth at which each ray's samples are centred (levelset): SuGaR's
+    /// diamond z-buffer, SuGaR's Gaussian-rasterised depth, or the median
+    /// depth.
     #[arg(long, value_enum, default_value = "diamonds")]
     pub depth: DepthArg,
     /// Total point cap over all views, per level.
@@ -286,10 +305,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
                 levels: args.level.clone(),
                 max_points: args.max_points,
                 min_opacity: args.min_opacity,
-                depth: match args.depth {
-                    DepthArg::Diamonds => DepthSource::Diamonds,
-                    DepthArg::Gaussian => DepthSource::Median,
-                },
+                depth: args.depth.source(),
                 seed: args.seed,
                 near: args.near,
                 ..Default::default()
@@ -305,7 +321,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     let n = points.positions.len();
     if n == 0 {
         bail!(
-            "no points: no ray crossed the level(s) {:?} (try a lower --level or --depth gaussian)",
+            "no points: no ray crossed the level(s) {:?} (try a lower --level or --depth median)",
             args.level
         );
     }
@@ -326,6 +342,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
         "gaussians": g.len(),
         "points": n,
         "method": format!("{:?}", args.method).to_lowercase(),
+        "depth": (args.method == Method::Levelset).then(|| format!("{:?}", args.depth).to_lowercase()),
         "levels": args.level,
         "output": shown(&args.output, true),
         "seconds": t0.elapsed().as_secs_f64(),
