@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::ops::{
-    bind_gaussians, chamfer, refine, clean, decimate, demo, export_off, info, poisson, prune_triangles,
-    render, splat2points, tsdf_fuse,
+    bind_gaussians, chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles,
+    refine, render, splat2points, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.

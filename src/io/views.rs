@@ -253,7 +253,10 @@ pub fn load_views(cameras: &[Camera], images: &Path, opts: &ViewOptions) -> Resu
             let mask = match mask {
                 Some(mp) => {
                     let Mask {
-                        width, height, bits, ..
+                        width,
+                        height,
+                        bits,
+                        ..
                     } = read_mask(mp)?;
                     Some(if fit(width, height, mp)? {
                         // object where most of the block is object

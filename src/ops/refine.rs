@@ -186,7 +186,11 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         .collect();
     let extent = camera_extent(&centres).unwrap_or(1.0);
     let params = RefineParams {
-        background: if args.white_background { [1.0; 3] } else { [0.0; 3] },
+        background: if args.white_background {
+            [1.0; 3]
+        } else {
+            [0.0; 3]
+        },
         normal_consistency: args.normal_consistency,
         sh_warmup: 1000,
         lr: LearningRates::default(),
@@ -240,11 +244,7 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
             ));
         }
         let at = r.iteration();
-        if !test.is_empty()
-            && args.eval_every > 0
-            && at % args.eval_every == 0
-            && at < iterations
-        {
+        if !test.is_empty() && args.eval_every > 0 && at % args.eval_every == 0 && at < iterations {
             evals.push(r.evaluate(&views, &test));
         }
     }

@@ -19,7 +19,10 @@ pub struct GroupState {
 
 /// Encodes the step and the groups.
 pub fn encode(step: u64, groups: &[GroupState]) -> Vec<u8> {
-    let total: usize = groups.iter().map(|g| 8 * g.m.len() + g.name.len() + 12).sum();
+    let total: usize = groups
+        .iter()
+        .map(|g| 8 * g.m.len() + g.name.len() + 12)
+        .sum();
     let mut out = Vec::with_capacity(20 + total);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&step.to_le_bytes());

@@ -290,7 +290,10 @@ impl Refiner {
         }
         for ((a, g), want) in self.adams.iter_mut().zip(groups).zip(GROUPS) {
             if g.name != want {
-                return Err(format!("optimiser group {:?} where {want:?} was expected", g.name));
+                return Err(format!(
+                    "optimiser group {:?} where {want:?} was expected",
+                    g.name
+                ));
             }
             a.restore(g.m, g.v, step)
                 .map_err(|m| format!("group {want}: {m} (a checkpoint of another model?)"))?;
