@@ -13,6 +13,7 @@ pub mod orbit;
 pub mod point_cloud;
 pub mod rng;
 pub mod scene;
+pub mod texture;
 pub mod transform;
 pub mod triangle_soup;
 
@@ -40,5 +41,6 @@ pub use obs_mask::ObsMask;
 pub use orbit::OrbitSpec;
 pub use point_cloud::PointCloud;
 pub use scene::{Scene, SceneKind};
+pub use texture::Texture;
 pub use transform::Similarity;
 pub use triangle_soup::TriangleSoup;
