@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::ops::{
-    chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles, render,
-    splat2points, tsdf_fuse,
+    bake_texture, chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles,
+    render, splat2points, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -48,6 +48,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Fuse depth maps (rendered from a scene, or files) into a coloured mesh: 2DGS / Open3D TSDF.
     TsdfFuse(tsdf_fuse::TsdfFuseArgs),
+    /// Bake a Gaussian scene's colours into a texture on a mesh (SuGaR's textured OBJ export).
+    BakeTexture(bake_texture::BakeTextureArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -66,6 +68,7 @@ pub fn splatkit_main() -> ! {
         Command::Render(a) => render::run(a),
         Command::TsdfFuse(a) => tsdf_fuse::run(a),
         Command::Splat2points(a) => splat2points::run(a),
+        Command::BakeTexture(a) => bake_texture::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -154,4 +157,11 @@ single_command!(
     splat2points::Splat2PointsArgs,
     splat2points::run,
     "A 3DGS scene to oriented points on its density level set (SuGaR), for `poisson`."
+);
+single_command!(
+    bake_texture_main,
+    "bake-texture",
+    bake_texture::BakeTextureArgs,
+    bake_texture::run,
+    "Bake a Gaussian scene's colours into a texture on a mesh (SuGaR's textured OBJ export)."
 );

@@ -386,8 +386,16 @@ impl Baker {
                                 Some(_) => texel(p, q),
                                 None => {
                                     // separator: mean of the neighbours across it
-                                    let lo = if q >= 1 { texel(p, q - 1) } else { texel(p - 1, q) };
-                                    let hi = if q + 1 < s { texel(p, q + 1) } else { texel(p + 1, q) };
+                                    let lo = if q >= 1 {
+                                        texel(p, q - 1)
+                                    } else {
+                                        texel(p - 1, q)
+                                    };
+                                    let hi = if q + 1 < s {
+                                        texel(p, q + 1)
+                                    } else {
+                                        texel(p + 1, q)
+                                    };
                                     match (lo, hi) {
                                         (Some(l), Some(h)) => {
                                             Some(std::array::from_fn(|k| 0.5 * (l[k] + h[k])))
@@ -457,10 +465,10 @@ pub fn check_texture_size(faces: usize, p: &BakeParams) -> Result<Atlas> {
     if side > p.max_texture as u64 {
         return Err(Error::invalid(format!(
             "the texture for {faces} faces at --square-size {} would be {side}x{side} texels \
-             (about {:.1} GB to bake), above --max-texture {}: raise --max-texture, lower \
+             (about {:.0} MB to bake), above --max-texture {}: raise --max-texture, lower \
              --square-size, or decimate the mesh",
             p.square,
-            Baker::bytes_for(side) / 1e9,
+            Baker::bytes_for(side) / 1e6,
             p.max_texture
         )));
     }
@@ -521,9 +529,15 @@ mod tests {
 
     #[test]
     fn size_formula_is_sugars() {
-        for f in [0usize, 1, 2, 3, 6, 7, 100, 1151, 200_000, 2_000_000, 9_999_999] {
+        for f in [
+            0usize, 1, 2, 3, 6, 7, 100, 1151, 200_000, 2_000_000, 9_999_999,
+        ] {
             let float = ((f / 2 + 1) as f64).sqrt() + 1.0;
-            assert_eq!(Atlas::squares_per_side(f), float.floor() as usize, "F = {f}");
+            assert_eq!(
+                Atlas::squares_per_side(f),
+                float.floor() as usize,
+                "F = {f}"
+            );
             let a = Atlas::new(f, 8).unwrap();
             // every face has a square
             assert!(a.per_side * a.per_side >= f.div_ceil(2));
@@ -566,13 +580,20 @@ mod tests {
                     } else {
                         assert!(lx + ly >= s + 2.0 - 1e-9);
                     }
-                    assert!((u as f64 - x / t).abs() < 1e-6 && (v as f64 - (1.0 - y / t)).abs() < 1e-6);
+                    assert!(
+                        (u as f64 - x / t).abs() < 1e-6 && (v as f64 - (1.0 - y / t)).abs() < 1e-6
+                    );
                 }
                 for _ in 0..200 {
                     let w = random_bary(&mut rng);
                     assert!(own.contains(&a.texel_at(f, w)), "face {f} {w:?}");
                 }
-                for w in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.5, 0.5]] {
+                for w in [
+                    [1.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                    [0.0, 0.5, 0.5],
+                ] {
                     assert!(own.contains(&a.texel_at(f, w)));
                 }
             }
@@ -606,7 +627,10 @@ mod tests {
                 let got = tex.sample(u, v);
                 let want = colour(f).map(|c| c as f32 / 255.0);
                 for k in 0..3 {
-                    assert!((got[k] - want[k]).abs() < 1e-3, "face {f}: {got:?} vs {want:?}");
+                    assert!(
+                        (got[k] - want[k]).abs() < 1e-3,
+                        "face {f}: {got:?} vs {want:?}"
+                    );
                 }
             }
         }
@@ -695,7 +719,10 @@ mod tests {
             ..Default::default()
         };
         let e = check_texture_size(2_000_000, &p).unwrap_err().to_string();
-        assert!(e.contains("8008x8008") && e.contains("--max-texture 1000"), "{e}");
+        assert!(
+            e.contains("8008x8008") && e.contains("--max-texture 1000"),
+            "{e}"
+        );
         // a size whose accumulators could never be allocated is refused
         // just the same (no allocation happens before the check)
         let huge = check_texture_size(usize::MAX / 4, &BakeParams::default());

@@ -148,7 +148,13 @@ pub fn read_texture(path: &Path) -> Result<crate::model::Texture> {
     let ch = info.color_type.samples();
     let pixels = buf[..w * h * ch]
         .chunks_exact(ch)
-        .map(|p| if ch >= 3 { [p[0], p[1], p[2]] } else { [p[0]; 3] })
+        .map(|p| {
+            if ch >= 3 {
+                [p[0], p[1], p[2]]
+            } else {
+                [p[0]; 3]
+            }
+        })
         .collect();
     Ok(crate::model::Texture {
         name: path
@@ -366,18 +372,20 @@ impl ObjReader {
                     let (a, b, c) = (corners[0], corners[k - 1], corners[k]);
                     self.faces.push([a.0, b.0, c.0]);
                     self.face_vt.push([a.1, b.1, c.1]);
-                    self.face_material.push(self.current_material.unwrap_or(NONE));
+                    self.face_material
+                        .push(self.current_material.unwrap_or(NONE));
                 }
             }
             b"usemtl" => {
                 let name = rest_of(line, kw.len());
-                self.current_material = Some(match self.materials.iter().position(|m| *m == name) {
-                    Some(i) => i as u32,
-                    None => {
-                        self.materials.push(name);
-                        (self.materials.len() - 1) as u32
-                    }
-                });
+                self.current_material =
+                    Some(match self.materials.iter().position(|m| *m == name) {
+                        Some(i) => i as u32,
+                        None => {
+                            self.materials.push(name);
+                            (self.materials.len() - 1) as u32
+                        }
+                    });
             }
             b"mtllib" => {
                 let name = rest_of(line, kw.len());
@@ -737,12 +745,7 @@ fn write_obj_inner(
         let _ = match (with_normals, t) {
             (true, 0) => writeln!(line, "f {a}//{a} {b}//{b} {c}//{c}"),
             (false, 0) => writeln!(line, "f {a} {b} {c}"),
-            (true, t) => writeln!(
-                line,
-                "f {a}/{t}/{a} {b}/{}/{b} {c}/{}/{c}",
-                t + 1,
-                t + 2
-            ),
+            (true, t) => writeln!(line, "f {a}/{t}/{a} {b}/{}/{b} {c}/{}/{c}", t + 1, t + 2),
             (false, t) => writeln!(line, "f {a}/{t} {b}/{} {c}/{}", t + 1, t + 2),
         };
     })?;
@@ -955,8 +958,12 @@ mod tests {
         assert!(m.texture.is_none());
         assert_eq!(m.uvs.as_ref().unwrap()[1][2], [1.0, 1.0]);
         // a missing MTL is not an error
-        let m = parse_obj_in("t.obj", obj.replace("m.mtl", "gone.mtl").as_bytes(), dir.path())
-            .unwrap();
+        let m = parse_obj_in(
+            "t.obj",
+            obj.replace("m.mtl", "gone.mtl").as_bytes(),
+            dir.path(),
+        )
+        .unwrap();
         assert!(m.texture.is_none() && m.uvs.is_some());
         assert_err("vt\n", &["line 1", "no numbers"]);
         assert_err("vt 0 0 0 0\n", &["line 1", "more than 3"]);
@@ -989,7 +996,10 @@ mod tests {
         .unwrap();
         let text = std::fs::read_to_string(&out).unwrap();
         assert!(text.contains("mtllib out.mtl\n"), "{text}");
-        assert!(text.contains("f 1/1/1 2/2/2 3/3/3\nf 3//3 2//2 4//4\n"), "{text}");
+        assert!(
+            text.contains("f 1/1/1 2/2/2 3/3/3\nf 3//3 2//2 4//4\n"),
+            "{text}"
+        );
         let mtl = std::fs::read_to_string(dir.path().join("out.mtl")).unwrap();
         assert!(mtl.contains("map_Kd out.png"), "{mtl}");
         let back = read_obj(&out).unwrap();

@@ -47,7 +47,13 @@ impl Texture {
         if self.width == 0 || self.height == 0 || !u.is_finite() || !v.is_finite() {
             return [0.0; 3];
         }
-        let wrap = |t: f32| if (0.0..=1.0).contains(&t) { t } else { t - t.floor() };
+        let wrap = |t: f32| {
+            if (0.0..=1.0).contains(&t) {
+                t
+            } else {
+                t - t.floor()
+            }
+        };
         let (u, v) = (wrap(u), wrap(v));
         // continuous texel coordinates with texel centres at integers
         let x = u * self.width as f32 - 0.5;

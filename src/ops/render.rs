@@ -217,7 +217,9 @@ pub fn shade_mesh(
             (Some(t), Some(uvs)) => {
                 let c = uvs[f as usize];
                 let uv: [f32; 2] = std::array::from_fn(|k| (0..3).map(|j| w[j] * c[j][k]).sum());
-                uv.iter().all(|x| x.is_finite()).then(|| t.sample(uv[0], uv[1]))
+                uv.iter()
+                    .all(|x| x.is_finite())
+                    .then(|| t.sample(uv[0], uv[1]))
             }
             _ => None,
         };
@@ -505,7 +507,17 @@ mod tests {
 
     /// A 64×64 camera at the origin looking down +z (OpenCV axes), f = 60.
     fn camera() -> Camera {
-        Camera::pinhole("c", 64, 64, 60.0, 60.0, 32.0, 32.0, DMat3::IDENTITY, DVec3::ZERO)
+        Camera::pinhole(
+            "c",
+            64,
+            64,
+            60.0,
+            60.0,
+            32.0,
+            32.0,
+            DMat3::IDENTITY,
+            DVec3::ZERO,
+        )
     }
 
     /// The square x, y ∈ [−1, 1] at z = 3 (two triangles), tilted by
@@ -520,7 +532,12 @@ mod tests {
 
     fn shade(m: &Mesh, shading: Shading) -> RenderOutput {
         let cam = camera();
-        shade_mesh(m, &zbuffer::render(&m.vertices, &m.faces, &cam, 0.1), [0.0; 3], shading)
+        shade_mesh(
+            m,
+            &zbuffer::render(&m.vertices, &m.faces, &cam, 0.1),
+            [0.0; 3],
+            shading,
+        )
     }
 
     /// Unlit vertex colours: a colour linear in x and y, which both
@@ -573,11 +590,21 @@ mod tests {
         m.vertex_colors = Some(vec![[200, 200, 200, 255]; 4]);
         let mean = |o: &RenderOutput| o.rgb.iter().map(|c| c[0] as f64).sum::<f64>();
         let (lit, none) = (shade(&m, Shading::Lit), shade(&m, Shading::None));
-        assert!(mean(&lit) < 0.9 * mean(&none), "{} {}", mean(&lit), mean(&none));
+        assert!(
+            mean(&lit) < 0.9 * mean(&none),
+            "{} {}",
+            mean(&lit),
+            mean(&none)
+        );
         // untextured, uncoloured: grey 0.8, unlit
         m.vertex_colors = None;
         let o = shade(&m, Shading::None);
-        assert!(o.rgb.iter().zip(&o.alpha).all(|(c, &a)| a == 0.0 || *c == [0.8; 3]));
+        assert!(
+            o.rgb
+                .iter()
+                .zip(&o.alpha)
+                .all(|(c, &a)| a == 0.0 || *c == [0.8; 3])
+        );
     }
 
     /// A textured quad: texel (col, row) of a 4×4 image shows at the pixel
@@ -589,7 +616,9 @@ mod tests {
         // corners (−1,−1) (1,−1) (1,1) (−1,1): top-left, top-right, bottom-right, bottom-left in the view
         let uv = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
         m.uvs = Some(m.faces.iter().map(|f| f.map(|i| uv[i as usize])).collect());
-        let pixels: Vec<[u8; 3]> = (0..16u8).map(|i| [i * 16, 255 - i * 16, (i % 4) * 60]).collect();
+        let pixels: Vec<[u8; 3]> = (0..16u8)
+            .map(|i| [i * 16, 255 - i * 16, (i % 4) * 60])
+            .collect();
         m.texture = Some(Texture {
             name: "t.png".into(),
             width: 4,
@@ -601,13 +630,19 @@ mod tests {
         for row in 0..4 {
             for col in 0..4 {
                 // texel centre in world x, y, then its pixel (f = 60, z = 3: 20 px per unit)
-                let (x, y) = (-1.0 + (col as f64 + 0.5) / 2.0, -1.0 + (row as f64 + 0.5) / 2.0);
+                let (x, y) = (
+                    -1.0 + (col as f64 + 0.5) / 2.0,
+                    -1.0 + (row as f64 + 0.5) / 2.0,
+                );
                 let (px, py) = ((32.0 + 20.0 * x) as usize, (32.0 + 20.0 * y) as usize);
                 let got = out.rgb[py * 64 + px];
                 let want = pixels[row * 4 + col].map(|v| v as f32 / 255.0);
                 for k in 0..3 {
                     // the pixel centre is 0.5 px (1/40 texel) from the texel centre
-                    assert!((got[k] - want[k]).abs() < 0.05, "texel {col},{row}: {got:?} vs {want:?}");
+                    assert!(
+                        (got[k] - want[k]).abs() < 0.05,
+                        "texel {col},{row}: {got:?} vs {want:?}"
+                    );
                 }
             }
         }
