@@ -8,8 +8,8 @@
 //! V2's (squares of 8 texels): ⌊√100,001 + 1⌋ = 317 squares, 2,536² texels.
 //!
 //! Timed: `geom::texture_bake::bake_texture` (20 mesh z-buffers, 20 DC-only
-//! Gaussian renders, the accumulation and the fill), then writing OBJ + MTL
-//! + PNG through `io::any::save_mesh` (what `bake-texture` does after
+//! Gaussian renders, the accumulation and the fill), then writing the OBJ,
+//! MTL and PNG through `io::any::save_mesh` (what `bake-texture` does after
 //! loading its inputs). Reported: each time, peak RSS, seen-face fraction.
 //!
 //! `cargo bench --bench bake_texture -- --write DIR` keeps the written

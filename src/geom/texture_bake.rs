@@ -122,7 +122,7 @@ impl Atlas {
     pub fn corners(&self, f: usize) -> [[f64; 2]; 3] {
         let (ox, oy) = self.origin(f);
         let s = self.square as f64;
-        let local = if f % 2 == 0 {
+        let local = if f.is_multiple_of(2) {
             [[0.5, 0.5], [s - 2.5, 0.5], [0.5, s - 2.5]]
         } else {
             [[s - 0.5, s - 0.5], [2.5, s - 0.5], [s - 0.5, 2.5]]
@@ -159,7 +159,7 @@ impl Atlas {
         let clamp = |v: f64, o: usize| ((v - o as f64).floor().max(0.0) as usize).min(s - 1);
         let (mut p, mut q) = (clamp(x, ox), clamp(y, oy));
         // guard against rounding on the hypotenuse: step into the own half
-        if f % 2 == 0 {
+        if f.is_multiple_of(2) {
             while p + q > s - 2 {
                 if p >= q { p -= 1 } else { q -= 1 }
             }
@@ -220,7 +220,7 @@ pub fn face_gaussian_colours(g: &Gaussians, faces: usize) -> Result<Vec<Option<[
             idx.into_iter().map(|x| x as usize).collect()
         }
         None => {
-            if faces == 0 || n == 0 || n % faces != 0 {
+            if faces == 0 || n == 0 || !n.is_multiple_of(faces) {
                 return Err(Error::invalid(format!(
                     "{n} Gaussians cannot be bound to {faces} faces: SuGaR binds n Gaussians per \
                      face in face-major order (Gaussian i on face i / n), so the count must be a \
@@ -235,8 +235,8 @@ pub fn face_gaussian_colours(g: &Gaussians, faces: usize) -> Result<Vec<Option<[
     let mut sums = vec![[0f64; 3]; faces];
     let mut counts = vec![0u32; faces];
     for (i, &f) in face_of.iter().enumerate() {
-        for k in 0..3 {
-            sums[f][k] += splatkit_render::sh::sh_to_rgb(g.sh_dc[i][k]) as f64;
+        for (s, &dc) in sums[f].iter_mut().zip(&g.sh_dc[i]) {
+            *s += splatkit_render::sh::sh_to_rgb(dc) as f64;
         }
         counts[f] += 1;
     }
@@ -512,7 +512,7 @@ pub fn bake_texture(
         faces: mesh.faces.clone(),
         normals: mesh.normals.clone(),
         uvs: Some((0..mesh.faces.len()).map(|f| atlas.uvs(f)).collect()),
-        texture: Some(texture),
+        texture: Some(Box::new(texture)),
         ..Default::default()
     };
     Ok((out, stats))

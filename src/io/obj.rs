@@ -206,7 +206,7 @@ fn attach_texture(mesh: &mut Mesh, mats: &ObjMaterials, base: &Path) {
             }
         }
     }
-    mesh.texture = Some(texture);
+    mesh.texture = Some(Box::new(texture));
 }
 
 /// Parses the bytes of an OBJ file; `name` is used in error messages.
@@ -983,7 +983,7 @@ mod tests {
                 [[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]],
                 [[f32::NAN; 2]; 3],
             ]),
-            texture: Some(tex.clone()),
+            texture: Some(Box::new(tex.clone())),
             ..Default::default()
         };
         let out = dir.path().join("out.obj");

@@ -24,7 +24,7 @@ pub struct Mesh {
     /// image than [`Mesh::texture`]).
     pub uvs: Option<Vec<[[f32; 2]; 3]>>,
     /// The texture image the `uvs` index (OBJ `map_Kd`).
-    pub texture: Option<Texture>,
+    pub texture: Option<Box<Texture>>,
     /// Per-vertex scalars the pipeline uses by name, such as Poisson `density`.
     pub vertex_scalars: Vec<(String, Vec<f32>)>,
     /// Everything else from the source file (extra face properties live in

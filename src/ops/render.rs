@@ -578,8 +578,8 @@ mod tests {
         let covered: Vec<_> = (0..out.rgb.len()).filter(|&i| out.alpha[i] > 0.0).collect();
         assert!(covered.len() > 1000);
         for i in covered {
-            for k in 0..3 {
-                assert!((out.rgb[i][k] - want[k]).abs() < 1e-6, "{:?}", out.rgb[i]);
+            for (got, want) in out.rgb[i].iter().zip(want) {
+                assert!((got - want).abs() < 1e-6, "{:?}", out.rgb[i]);
             }
         }
     }
@@ -619,12 +619,12 @@ mod tests {
         let pixels: Vec<[u8; 3]> = (0..16u8)
             .map(|i| [i * 16, 255 - i * 16, (i % 4) * 60])
             .collect();
-        m.texture = Some(Texture {
+        m.texture = Some(Box::new(Texture {
             name: "t.png".into(),
             width: 4,
             height: 4,
             pixels: pixels.clone(),
-        });
+        }));
         m.vertex_colors = Some(vec![[0, 0, 0, 255]; 4]); // the texture wins
         let out = shade(&m, Shading::None);
         for row in 0..4 {
