@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::ops::{
-    bind_gaussians, chamfer, clean, decimate, demo, export_off, info, poisson, prune_triangles,
-    refine, render, splat2points, tsdf_fuse,
+    bake_texture, bind_gaussians, chamfer, clean, decimate, demo, export_off, info, poisson,
+    prune_triangles, refine, render, splat2points, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -52,6 +52,8 @@ pub enum Command {
     BindGaussians(bind_gaussians::BindGaussiansArgs),
     /// Refine bound Gaussians and their mesh against photos (SuGaR), with held-out PSNR / SSIM.
     Refine(refine::RefineArgs),
+    /// Bake a Gaussian scene's colours into a texture on a mesh (SuGaR's textured OBJ export).
+    BakeTexture(bake_texture::BakeTextureArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -72,6 +74,7 @@ pub fn splatkit_main() -> ! {
         Command::Splat2points(a) => splat2points::run(a),
         Command::BindGaussians(a) => bind_gaussians::run(a),
         Command::Refine(a) => refine::run(a),
+        Command::BakeTexture(a) => bake_texture::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -174,4 +177,11 @@ single_command!(
     refine::RefineArgs,
     refine::run,
     "Refine Gaussians bound to a mesh, and the mesh, against photos (SuGaR's refinement)."
+);
+single_command!(
+    bake_texture_main,
+    "bake-texture",
+    bake_texture::BakeTextureArgs,
+    bake_texture::run,
+    "Bake a Gaussian scene's colours into a texture on a mesh (SuGaR's textured OBJ export)."
 );

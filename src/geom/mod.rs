@@ -21,6 +21,7 @@ pub mod soup_mesh;
 pub mod splat_points;
 pub mod stats;
 pub mod synthetic;
+pub mod texture_bake;
 pub mod trim;
 pub mod tsdf;
 pub mod voxel;

@@ -35,7 +35,8 @@ pub struct Opened {
     pub format: FileFormat,
     /// What a PLY's header says it holds (`None` for other formats).
     pub ply_kind: Option<PlyKind>,
-    /// The folder relative files (glTF external buffers) are resolved in:
+    /// The folder relative files (glTF external buffers, OBJ materials and
+    /// textures) are resolved in:
     /// the file's folder, or the current folder for stdin.
     pub base: PathBuf,
 }
@@ -226,7 +227,7 @@ pub fn load_points(path: &Path, command: &str) -> Result<PointCloud> {
 fn parse_mesh_as(f: FileFormat, name: &str, bytes: &[u8], base: &Path) -> Result<Mesh> {
     match f {
         FileFormat::Ply => ply::mesh::parse_mesh(name, bytes),
-        FileFormat::Obj => obj::parse_obj(name, bytes),
+        FileFormat::Obj => obj::parse_obj_in(name, bytes, base),
         FileFormat::Off => off::parse_off(name, bytes),
         FileFormat::Glb | FileFormat::Gltf => gltf::parse_gltf_in(name, bytes, base),
         other => Err(Error::format(
@@ -281,8 +282,15 @@ pub struct MeshWriteOptions {
 }
 
 /// Writes a mesh as PLY (binary little-endian, every attribute kept), OBJ,
-/// OFF or glTF/GLB, atomically (`-` = stdout).
+/// OFF or glTF/GLB, atomically (`-` = stdout). Texture coordinates are
+/// written to OBJ only; a mesh with a texture written as OBJ to a file
+/// becomes three files, `NAME.obj`, `NAME.mtl` (material `material_0`,
+/// `map_Kd NAME.png`) and `NAME.png`, renamed into place together (see
+/// [`crate::io::source::write_outputs`]).
 pub fn save_mesh(path: &Path, mesh: &Mesh, f: FileFormat, opts: &MeshWriteOptions) -> Result<()> {
+    if let (FileFormat::Obj, Some(tex), false) = (f, &mesh.texture, path.as_os_str() == "-") {
+        return save_textured_obj(path, mesh, tex);
+    }
     if !matches!(
         f,
         FileFormat::Ply | FileFormat::Obj | FileFormat::Off | FileFormat::Glb | FileFormat::Gltf
@@ -313,6 +321,46 @@ pub fn save_mesh(path: &Path, mesh: &Mesh, f: FileFormat, opts: &MeshWriteOption
             },
         ),
     })
+}
+
+/// The three files of a textured OBJ (see [`save_mesh`]).
+fn save_textured_obj(path: &Path, mesh: &Mesh, tex: &crate::model::Texture) -> Result<()> {
+    mesh.validate()
+        .map_err(|e| Error::invalid(format!("cannot write OBJ: {e}")))?;
+    let mtl = path.with_extension("mtl");
+    let png = path.with_extension("png");
+    let file_name = |p: &Path| {
+        p.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    let (mtl_name, png_name) = (file_name(&mtl), file_name(&png));
+    let material = "material_0";
+    let bytes: Vec<u8> = tex.pixels.iter().flatten().copied().collect();
+    crate::io::source::write_outputs(vec![
+        (
+            png.clone(),
+            Box::new(|w: &mut dyn std::io::Write| {
+                crate::io::image::write_png8(w, &png_name, tex.width, tex.height, 3, &bytes)
+            }),
+        ),
+        (
+            mtl.clone(),
+            Box::new(|w: &mut dyn std::io::Write| obj::write_mtl(w, material, &png_name)),
+        ),
+        (
+            path.to_path_buf(),
+            Box::new(|w: &mut dyn std::io::Write| {
+                obj::write_obj_with_material(
+                    w,
+                    mesh,
+                    &obj::ObjWriteOptions::default(),
+                    &mtl_name,
+                    material,
+                )
+            }),
+        ),
+    ])
 }
 
 /// Writes a point cloud as PLY in `format` (every attribute kept),

@@ -1,5 +1,5 @@
-//! Wavefront OBJ meshes (geometry only: positions, normals, vertex colours,
-//! faces; materials and texture coordinates are ignored).
+//! Wavefront OBJ meshes: positions, normals, vertex colours, faces, texture
+//! coordinates and one diffuse texture (`mtllib` / `usemtl` / `map_Kd`, PNG).
 //!
 //! # Reading
 //! The reader is hand-written rather than built on `tobj`, because `tobj`
@@ -12,13 +12,21 @@
 //!   clamped, scaled by 255 and rounded; alpha 255); `v x y z w` is accepted
 //!   and `w` ignored (it only matters for rational curves). When some vertices
 //!   have colours, the others get opaque white.
-//! - `vn` lines give normals; `vt` lines are counted (so face indices can be
-//!   checked) and otherwise ignored.
+//! - `vn` lines give normals; `vt u [v [w]]` lines give texture coordinates
+//!   (`v` defaults to 0, `w` is ignored; v points up, row 0 of the image is
+//!   v = 1, see [`crate::model::texture`]). Each face corner's `vt` goes to
+//!   [`Mesh::uvs`] (per face corner, so seams need no vertex copies); a
+//!   corner naming none gets NaN. The mesh has `uvs` when some corner names
+//!   a `vt`.
+//! - `mtllib` and `usemtl` are recorded; [`parse_obj_in`] / [`read_obj`]
+//!   (and `io::any::load`) then read the material files next to the OBJ and
+//!   attach the `map_Kd` image of the first textured material that faces use
+//!   as [`Mesh::texture`]; faces of other materials get NaN coordinates.
 //! - `f` corners are `v`, `v/vt`, `v//vn` or `v/vt/vn`, 1-based, or negative
 //!   (relative to the vertices / normals defined so far). Polygons are
 //!   fan-triangulated (`a b c`, `a c d`, …); faces with fewer than 3 corners
-//!   give nothing. `l`, `p`, groups, objects, smoothing groups, materials and
-//!   every other statement are ignored; all groups go into one mesh.
+//!   give nothing. `l`, `p`, groups, objects, smoothing groups and every
+//!   other statement are ignored; all groups go into one mesh.
 //! - Normals: OBJ indexes normals separately from positions, the mesh stores
 //!   one per vertex. A vertex takes the normal of the first face corner that
 //!   names one; a corner naming a different normal (different value) for the
@@ -32,7 +40,10 @@
 //! # Writing
 //! `v x y z [r g b]`, `vn nx ny nz`, `f a b c` or `f a//a b//b c//c`, 1-based,
 //! floats in shortest round-trip form ([`crate::io::off::format_f32_shortest`]). OBJ has no
-//! alpha and no per-face colours; see [`ObjWriteOptions`].
+//! alpha and no per-face colours; see [`ObjWriteOptions`]. A mesh with
+//! texture coordinates gets three private `vt` lines per textured face and
+//! `f a/t …` corners; [`write_obj_with_material`] adds `mtllib` / `usemtl`
+//! (the MTL and PNG are written beside it by `io::any::save_mesh`).
 
 use std::collections::HashMap;
 use std::io::Write;
@@ -43,14 +54,169 @@ use crate::io::source::werr;
 use crate::model::Mesh;
 use crate::{Error, Result};
 
-/// Reads an OBJ file (`-` = stdin). See the module documentation.
+/// Reads an OBJ file (`-` = stdin) with its texture (materials resolved
+/// next to the file, see [`parse_obj_in`]). See the module documentation.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
     let input = crate::io::read_input(path)?;
-    parse_obj(&input.name, &input)
+    let base = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() && !input.is_stdin() => p,
+        _ => Path::new("."),
+    };
+    parse_obj_in(&input.name, &input, base)
+}
+
+/// [`parse_obj`], then the texture: `mtllib` files are looked up in `base`
+/// (the OBJ's folder) and the first material used by a face (in face order)
+/// whose `map_Kd` names an image becomes [`Mesh::texture`] (a PNG, path
+/// relative to the MTL's folder; when no face names a material and the
+/// libraries hold exactly one textured material, that one). Faces under a
+/// material with no image or another image get NaN texture coordinates.
+///
+/// A missing or unreadable MTL or image is not an error: the mesh loads
+/// with its texture coordinates and without a texture (`render` says so),
+/// so geometry commands keep working on an OBJ copied without its
+/// material files. JPEG textures are not decoded (convert them to PNG).
+pub fn parse_obj_in(name: &str, bytes: &[u8], base: &Path) -> Result<Mesh> {
+    let (mut mesh, mats) = parse_obj_materials(name, bytes)?;
+    if mesh.uvs.is_some() {
+        attach_texture(&mut mesh, &mats, base);
+    }
+    Ok(mesh)
+}
+
+/// One `newmtl` of an MTL file and its `map_Kd` image path (resolved
+/// against the MTL's folder).
+struct MtlEntry {
+    name: String,
+    map_kd: Option<std::path::PathBuf>,
+}
+
+/// The MTL file an `mtllib` statement names: the whole argument when such a
+/// file exists (names may hold spaces), else each word that does.
+fn mtl_files(lib: &str, base: &Path) -> Vec<std::path::PathBuf> {
+    let whole = base.join(lib.replace('\\', "/"));
+    if whole.is_file() {
+        return vec![whole];
+    }
+    lib.split_whitespace()
+        .map(|w| base.join(w.replace('\\', "/")))
+        .filter(|p| p.is_file())
+        .collect()
+}
+
+/// Parses MTL text: material names and their `map_Kd` images. Options
+/// before the file name (`-s 1 1 1`, `-clamp on`, `-bm 0.5`, …) are skipped.
+fn parse_mtl(text: &str, dir: &Path) -> Vec<MtlEntry> {
+    let mut out: Vec<MtlEntry> = Vec::new();
+    for line in text.lines() {
+        let line = line.split('#').next().unwrap_or_default().trim();
+        let (kw, rest) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
+        match kw {
+            "newmtl" => out.push(MtlEntry {
+                name: rest.trim().to_string(),
+                map_kd: None,
+            }),
+            "map_Kd" | "map_kd" => {
+                let words: Vec<&str> = rest.split_whitespace().collect();
+                let mut i = 0;
+                while i + 1 < words.len() && words[i].starts_with('-') {
+                    i += 1;
+                    // an option's arguments: numbers and on/off
+                    while i + 1 < words.len()
+                        && (words[i].parse::<f64>().is_ok() || matches!(words[i], "on" | "off"))
+                    {
+                        i += 1;
+                    }
+                }
+                let file = words[i.min(words.len())..].join(" ");
+                if let (Some(m), false) = (out.last_mut(), file.is_empty()) {
+                    m.map_kd = Some(dir.join(file.replace('\\', "/")));
+                }
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Reads a texture image: an 8- or 16-bit PNG (grey, grey+alpha, RGB or
+/// RGBA; alpha dropped, 16 bits reduced to 8), row 0 at the top.
+pub fn read_texture(path: &Path) -> Result<crate::model::Texture> {
+    let t = png::Transformations::EXPAND | png::Transformations::STRIP_16;
+    let (info, buf) = crate::io::image::decode_png(path, t)?;
+    let (w, h) = (info.width as usize, info.height as usize);
+    let ch = info.color_type.samples();
+    let pixels = buf[..w * h * ch]
+        .chunks_exact(ch)
+        .map(|p| {
+            if ch >= 3 {
+                [p[0], p[1], p[2]]
+            } else {
+                [p[0]; 3]
+            }
+        })
+        .collect();
+    Ok(crate::model::Texture {
+        name: path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        width: w,
+        height: h,
+        pixels,
+    })
+}
+
+/// Finds and reads the mesh's texture (see [`parse_obj_in`]).
+fn attach_texture(mesh: &mut Mesh, mats: &ObjMaterials, base: &Path) {
+    let mut entries: Vec<MtlEntry> = Vec::new();
+    for lib in &mats.libs {
+        for f in mtl_files(lib, base) {
+            if let Ok(text) = std::fs::read(&f) {
+                let dir = f.parent().unwrap_or(Path::new("."));
+                entries.extend(parse_mtl(&String::from_utf8_lossy(&text), dir));
+            }
+        }
+    }
+    let image_of = |m: u32| -> Option<&std::path::PathBuf> {
+        let name = mats.names.get(m as usize)?;
+        entries.iter().find(|e| e.name == *name)?.map_kd.as_ref()
+    };
+    let textured: Vec<&std::path::PathBuf> =
+        entries.iter().filter_map(|e| e.map_kd.as_ref()).collect();
+    let no_materials = mats.face_material.iter().all(|&m| m == NONE);
+    let chosen = if no_materials {
+        (textured.len() == 1).then(|| textured[0].clone())
+    } else {
+        mats.face_material
+            .iter()
+            .find_map(|&m| image_of(m))
+            .cloned()
+    };
+    let Some(path) = chosen else {
+        return;
+    };
+    let Ok(texture) = read_texture(&path) else {
+        return;
+    };
+    if !no_materials && let Some(uvs) = mesh.uvs.as_mut() {
+        for (uv, &m) in uvs.iter_mut().zip(&mats.face_material) {
+            if image_of(m) != Some(&path) {
+                *uv = [[f32::NAN; 2]; 3];
+            }
+        }
+    }
+    mesh.texture = Some(Box::new(texture));
 }
 
 /// Parses the bytes of an OBJ file; `name` is used in error messages.
+/// Texture coordinates are kept ([`Mesh::uvs`]); materials are not looked
+/// up (see [`parse_obj_in`]).
 pub fn parse_obj(name: &str, bytes: &[u8]) -> Result<Mesh> {
+    parse_obj_materials(name, bytes).map(|(m, _)| m)
+}
+
+fn parse_obj_materials(name: &str, bytes: &[u8]) -> Result<(Mesh, ObjMaterials)> {
     let mut r = ObjReader::default();
     let mut line_no = 0usize;
     let mut pos = 0usize;
@@ -99,8 +265,17 @@ struct ObjReader {
     vertices: Vec<[f32; 3]>,
     colors: Option<Vec<[u8; 4]>>,
     file_normals: Vec<[f32; 3]>,
-    n_texcoords: usize,
+    texcoords: Vec<[f32; 2]>,
     faces: Vec<[u32; 3]>,
+    /// `vt` index of each face corner (`NONE` where the corner names none).
+    face_vt: Vec<[u32; 3]>,
+    /// Material of each face: index into `materials`, `NONE` before any `usemtl`.
+    face_material: Vec<u32>,
+    /// Material names in order of first `usemtl`.
+    materials: Vec<String>,
+    current_material: Option<u32>,
+    /// `mtllib` arguments as written.
+    mtllibs: Vec<String>,
     /// Normal index assigned to each vertex (`u32::MAX` = none yet), grown
     /// lazily as faces use normals.
     vertex_normal: Vec<u32>,
@@ -168,9 +343,25 @@ impl ObjReader {
                 }
                 self.file_normals.push(n);
             }
-            b"vt" => self.n_texcoords += 1,
+            b"vt" => {
+                let mut uv = [0f32; 2];
+                let mut n = 0;
+                for t in toks {
+                    let x = parse_f32(t, "a texture coordinate")?;
+                    if n < 2 {
+                        uv[n] = x;
+                    } else if n > 2 {
+                        return Err("expected `vt u [v [w]]`, found more than 3 numbers".into());
+                    }
+                    n += 1;
+                }
+                if n == 0 {
+                    return Err("expected `vt u [v [w]]`, found no numbers".into());
+                }
+                self.texcoords.push(uv);
+            }
             b"f" => {
-                let mut corners: Vec<u32> = Vec::with_capacity(4);
+                let mut corners: Vec<(u32, u32)> = Vec::with_capacity(4);
                 for (k, t) in toks.enumerate() {
                     corners.push(
                         self.corner(t)
@@ -178,7 +369,28 @@ impl ObjReader {
                     );
                 }
                 for k in 2..corners.len().max(2) {
-                    self.faces.push([corners[0], corners[k - 1], corners[k]]);
+                    let (a, b, c) = (corners[0], corners[k - 1], corners[k]);
+                    self.faces.push([a.0, b.0, c.0]);
+                    self.face_vt.push([a.1, b.1, c.1]);
+                    self.face_material
+                        .push(self.current_material.unwrap_or(NONE));
+                }
+            }
+            b"usemtl" => {
+                let name = rest_of(line, kw.len());
+                self.current_material =
+                    Some(match self.materials.iter().position(|m| *m == name) {
+                        Some(i) => i as u32,
+                        None => {
+                            self.materials.push(name);
+                            (self.materials.len() - 1) as u32
+                        }
+                    });
+            }
+            b"mtllib" => {
+                let name = rest_of(line, kw.len());
+                if !name.is_empty() {
+                    self.mtllibs.push(name);
                 }
             }
             _ => {}
@@ -186,8 +398,15 @@ impl ObjReader {
         Ok(())
     }
 
-    /// Resolves one `v[/vt[/vn]]` corner to a mesh vertex.
-    fn corner(&mut self, t: &[u8]) -> std::result::Result<u32, String> {
+    /// Resolves one `v[/vt[/vn]]` corner to a mesh vertex and its `vt`
+    /// index (`NONE` when it names none).
+    fn corner(&mut self, t: &[u8]) -> std::result::Result<(u32, u32), String> {
+        let mut vt_index = NONE;
+        let v = self.corner_vertex(t, &mut vt_index)?;
+        Ok((v, vt_index))
+    }
+
+    fn corner_vertex(&mut self, t: &[u8], vt_index: &mut u32) -> std::result::Result<u32, String> {
         let mut parts = t.split(|&b| b == b'/');
         let v = parts.next().unwrap_or_default();
         let vt = parts.next();
@@ -200,7 +419,7 @@ impl ObjReader {
         }
         let v = resolve(v, self.vertices.len(), "vertex")?;
         if let Some(vt) = vt.filter(|s| !s.is_empty()) {
-            resolve(vt, self.n_texcoords, "texture coordinate")?;
+            *vt_index = resolve(vt, self.texcoords.len(), "texture coordinate")?;
         }
         let Some(vn) = vn.filter(|s| !s.is_empty()) else {
             return Ok(v);
@@ -238,7 +457,7 @@ impl ObjReader {
         Ok(copy)
     }
 
-    fn finish(mut self) -> std::result::Result<Mesh, String> {
+    fn finish(mut self) -> std::result::Result<(Mesh, ObjMaterials), String> {
         let n_orig = self.vertices.len();
         if n_orig + self.split_of.len() > NONE as usize {
             return Err(
@@ -278,14 +497,53 @@ impl ObjReader {
                 c.push(c[v as usize]);
             }
         }
-        Ok(Mesh {
+        let uvs = self.face_vt.iter().flatten().any(|&t| t != NONE).then(|| {
+            self.face_vt
+                .iter()
+                .map(|f| {
+                    f.map(|t| match t {
+                        NONE => [f32::NAN; 2],
+                        t => self.texcoords[t as usize],
+                    })
+                })
+                .collect()
+        });
+        let mesh = Mesh {
             vertices: self.vertices,
             faces: self.faces,
             normals,
             vertex_colors: self.colors,
+            uvs,
             ..Default::default()
-        })
+        };
+        let materials = ObjMaterials {
+            libs: self.mtllibs,
+            names: self.materials,
+            face_material: self.face_material,
+        };
+        Ok((mesh, materials))
     }
+}
+
+/// What an OBJ says about materials: `mtllib` arguments, `usemtl` names in
+/// order of first use, and each face's material (index into `names`,
+/// `NONE` before any `usemtl`).
+struct ObjMaterials {
+    libs: Vec<String>,
+    names: Vec<String>,
+    face_material: Vec<u32>,
+}
+
+/// The text after a statement's keyword, trimmed (names may hold spaces).
+fn rest_of(line: &[u8], kw_len: usize) -> String {
+    let start = line
+        .iter()
+        .position(|b| !b.is_ascii_whitespace())
+        .unwrap_or(0)
+        + kw_len;
+    String::from_utf8_lossy(line.get(start..).unwrap_or_default())
+        .trim()
+        .to_string()
 }
 
 /// Resolves a 1-based or negative (relative) OBJ index against `count`
@@ -364,7 +622,49 @@ pub fn write_obj(w: &mut dyn Write, mesh: &Mesh, opts: &ObjWriteOptions) -> Resu
     write_obj_validated(w, mesh, opts)
 }
 
+/// [`write_obj`] with a material: `mtllib MTL_FILE` and `usemtl MATERIAL`
+/// before the faces (the MTL and the texture image are separate files,
+/// written by [`write_mtl`] and [`crate::io::image::write_png8`]; see
+/// `io::any::save_mesh`, which writes all three).
+pub fn write_obj_with_material(
+    w: &mut dyn Write,
+    mesh: &Mesh,
+    opts: &ObjWriteOptions,
+    mtl_file: &str,
+    material: &str,
+) -> Result<()> {
+    mesh.validate()
+        .map_err(|e| Error::invalid(format!("cannot write OBJ: {e}")))?;
+    let unshared;
+    let mesh = if opts.colors && mesh.vertex_colors.is_none() && mesh.face_colors.is_some() {
+        unshared = crate::io::gltf::face_colors_to_corners(mesh);
+        &unshared
+    } else {
+        mesh
+    };
+    write_obj_inner(w, mesh, opts, Some((mtl_file, material)))
+}
+
+/// Writes an MTL file with one material whose diffuse map is `texture_file`
+/// (white diffuse colour, no specular, so viewers show the texture as it is).
+pub fn write_mtl(w: &mut dyn Write, material: &str, texture_file: &str) -> Result<()> {
+    write!(
+        w,
+        "# splatkit\nnewmtl {material}\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nNs 0\nillum 1\nmap_Kd {texture_file}\n"
+    )
+    .map_err(werr)
+}
+
 fn write_obj_validated(w: &mut dyn Write, mesh: &Mesh, opts: &ObjWriteOptions) -> Result<()> {
+    write_obj_inner(w, mesh, opts, None)
+}
+
+fn write_obj_inner(
+    w: &mut dyn Write,
+    mesh: &Mesh,
+    opts: &ObjWriteOptions,
+    material: Option<(&str, &str)>,
+) -> Result<()> {
     use std::fmt::Write as _;
     let colors = mesh.vertex_colors.as_ref().filter(|_| opts.colors);
     let normals = mesh.normals.as_ref().filter(|_| opts.normals);
@@ -375,6 +675,9 @@ fn write_obj_validated(w: &mut dyn Write, mesh: &Mesh, opts: &ObjWriteOptions) -
         mesh.faces.len()
     )
     .map_err(werr)?;
+    if let Some((mtl, _)) = material {
+        writeln!(w, "mtllib {mtl}").map_err(werr)?;
+    }
     write_lines_par(w, &mesh.vertices, |line, i, v| {
         line.push('v');
         for &x in v {
@@ -399,14 +702,51 @@ fn write_obj_validated(w: &mut dyn Write, mesh: &Mesh, opts: &ObjWriteOptions) -
             line.push('\n');
         })?;
     }
+    // Texture coordinates: three private `vt` per textured face (faces
+    // whose coordinates are not finite get none), numbered in face order.
+    let mut vt_base = Vec::new();
+    if let Some(uvs) = &mesh.uvs {
+        let textured: Vec<[[f32; 2]; 3]> = uvs
+            .iter()
+            .filter(|f| f.iter().flatten().all(|x| x.is_finite()))
+            .copied()
+            .collect();
+        write_lines_par(w, &textured, |line, _, f| {
+            for uv in f {
+                line.push_str("vt");
+                for &x in uv {
+                    line.push(' ');
+                    push_f32_shortest(line, x);
+                }
+                line.push('\n');
+            }
+        })?;
+        let mut next = 1u64;
+        vt_base = uvs
+            .iter()
+            .map(|f| {
+                if f.iter().flatten().all(|x| x.is_finite()) {
+                    next += 3;
+                    next - 3
+                } else {
+                    0
+                }
+            })
+            .collect();
+    }
+    if let Some((_, name)) = material {
+        writeln!(w, "usemtl {name}").map_err(werr)?;
+    }
     let with_normals = normals.is_some();
-    write_lines_par(w, &mesh.faces, |line, _, f| {
+    write_lines_par(w, &mesh.faces, |line, i, f| {
         let [a, b, c] = f.map(|i| u64::from(i) + 1);
+        let t = vt_base.get(i).copied().unwrap_or(0);
         // Writing into a String cannot fail.
-        let _ = if with_normals {
-            writeln!(line, "f {a}//{a} {b}//{b} {c}//{c}")
-        } else {
-            writeln!(line, "f {a} {b} {c}")
+        let _ = match (with_normals, t) {
+            (true, 0) => writeln!(line, "f {a}//{a} {b}//{b} {c}//{c}"),
+            (false, 0) => writeln!(line, "f {a} {b} {c}"),
+            (true, t) => writeln!(line, "f {a}/{t}/{a} {b}/{}/{b} {c}/{}/{c}", t + 1, t + 2),
+            (false, t) => writeln!(line, "f {a}/{t} {b}/{} {c}/{}", t + 1, t + 2),
         };
     })?;
     Ok(())
@@ -583,5 +923,89 @@ mod tests {
         assert_eq!(back.vertices[3], [0.0, 1.0, 0.0]);
         assert_eq!(back.vertex_colors.as_ref().unwrap()[4], [40, 50, 60, 255]);
         assert_eq!(back.vertex_colors.as_ref().unwrap()[2], [10, 20, 30, 255]);
+    }
+
+    /// A 2×1 PNG: red on the left, blue on the right.
+    fn write_test_png(path: &Path) {
+        let mut f = std::fs::File::create(path).unwrap();
+        crate::io::image::write_png8(&mut f, "t.png", 2, 1, 3, &[255, 0, 0, 0, 0, 255]).unwrap();
+    }
+
+    #[test]
+    fn texture_coordinates_materials_and_map_kd() {
+        let dir = tempfile::tempdir().unwrap();
+        write_test_png(&dir.path().join("my tex.png"));
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl plain\nKd 1 0 0\nnewmtl skin\nKd 1 1 1\nmap_Kd -s 1 1 1 -clamp on my tex.png\n",
+        )
+        .unwrap();
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                   vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1 0\n\
+                   usemtl plain\nf 1/1 2/2 3/3\nusemtl skin\nf 1/1 2/2 3/3 4/4\n";
+        let m = parse_obj_in("t.obj", obj.as_bytes(), dir.path()).unwrap();
+        assert_eq!(m.faces, vec![[0, 1, 2], [0, 1, 2], [0, 2, 3]]);
+        let uvs = m.uvs.as_ref().unwrap();
+        // the first face's material has no image: no texture there
+        assert!(uvs[0][0][0].is_nan());
+        assert_eq!(uvs[1], [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]);
+        assert_eq!(uvs[2], [[0.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+        let t = m.texture.as_ref().unwrap();
+        assert_eq!((t.width, t.height, t.name.as_str()), (2, 1, "my tex.png"));
+        assert_eq!(t.pixels, vec![[255, 0, 0], [0, 0, 255]]);
+        // without a folder to look in: coordinates kept, no texture
+        let m = parse(obj).unwrap();
+        assert!(m.texture.is_none());
+        assert_eq!(m.uvs.as_ref().unwrap()[1][2], [1.0, 1.0]);
+        // a missing MTL is not an error
+        let m = parse_obj_in(
+            "t.obj",
+            obj.replace("m.mtl", "gone.mtl").as_bytes(),
+            dir.path(),
+        )
+        .unwrap();
+        assert!(m.texture.is_none() && m.uvs.is_some());
+        assert_err("vt\n", &["line 1", "no numbers"]);
+        assert_err("vt 0 0 0 0\n", &["line 1", "more than 3"]);
+    }
+
+    #[test]
+    fn textured_obj_round_trip_writes_three_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let png = dir.path().join("in.png");
+        write_test_png(&png);
+        let tex = read_texture(&png).unwrap();
+        let m = Mesh {
+            vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]],
+            faces: vec![[0, 1, 2], [2, 1, 3]],
+            normals: Some(vec![[0.0, 0.0, 1.0]; 4]),
+            uvs: Some(vec![
+                [[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]],
+                [[f32::NAN; 2]; 3],
+            ]),
+            texture: Some(Box::new(tex.clone())),
+            ..Default::default()
+        };
+        let out = dir.path().join("out.obj");
+        crate::io::any::save_mesh(
+            &out,
+            &m,
+            crate::io::detect::FileFormat::Obj,
+            &Default::default(),
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&out).unwrap();
+        assert!(text.contains("mtllib out.mtl\n"), "{text}");
+        assert!(
+            text.contains("f 1/1/1 2/2/2 3/3/3\nf 3//3 2//2 4//4\n"),
+            "{text}"
+        );
+        let mtl = std::fs::read_to_string(dir.path().join("out.mtl")).unwrap();
+        assert!(mtl.contains("map_Kd out.png"), "{mtl}");
+        let back = read_obj(&out).unwrap();
+        assert_eq!(back.texture.as_ref().unwrap().pixels, tex.pixels);
+        assert_eq!(back.uvs.as_ref().unwrap()[0], m.uvs.as_ref().unwrap()[0]);
+        assert!(back.uvs.as_ref().unwrap()[1][0][0].is_nan());
+        assert_eq!(back.faces, m.faces);
     }
 }

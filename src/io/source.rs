@@ -107,6 +107,19 @@ where
         f(&mut w).map_err(|e| name_output(e, "<stdout>"))?;
         return w.flush().map_err(|e| Error::io("<stdout>", e));
     }
+    let tmp = stage_file(path, f)?;
+    tmp.persist(path)
+        .map_err(|e| Error::io(path.display(), e.error))?;
+    Ok(())
+}
+
+/// A file output whose bytes are `f`'s, written to a temporary file in
+/// `path`'s folder (with the permissions the output will have) and not yet
+/// renamed.
+fn stage_file<F>(path: &Path, f: F) -> Result<tempfile::NamedTempFile>
+where
+    F: FnOnce(&mut dyn Write) -> Result<()>,
+{
     let name = path.display().to_string();
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -134,7 +147,31 @@ where
             .set_permissions(perms)
             .map_err(|e| Error::io(&name, e))?;
     }
-    tmp.persist(path).map_err(|e| Error::io(&name, e.error))?;
+    Ok(tmp)
+}
+
+/// One file of [`write_outputs`]: its path and the writer of its bytes.
+pub type OutputFile<'a> = (PathBuf, Box<dyn FnOnce(&mut dyn Write) -> Result<()> + 'a>);
+
+/// Writes several files that belong together (an OBJ with its MTL and
+/// texture): each goes to a temporary file next to it, and they are renamed
+/// into place, in the given order, only after every one was written, so a
+/// failure leaves none of them behind or replaced. (`-` is not accepted.)
+pub fn write_outputs(files: Vec<OutputFile<'_>>) -> Result<()> {
+    let mut staged = Vec::with_capacity(files.len());
+    for (path, f) in files {
+        if path.as_os_str() == "-" {
+            return Err(Error::invalid(
+                "these outputs are several files and cannot go to stdout",
+            ));
+        }
+        let tmp = stage_file(&path, f)?;
+        staged.push((path, tmp));
+    }
+    for (path, tmp) in staged {
+        tmp.persist(&path)
+            .map_err(|e| Error::io(path.display(), e.error))?;
+    }
     Ok(())
 }
 

@@ -1,6 +1,7 @@
 //! Triangle meshes.
 
 use super::Extras;
+use super::texture::Texture;
 
 /// An indexed triangle mesh. Polygons read from files are fan-triangulated.
 /// Optional attributes are either absent or have one entry per vertex / face.
@@ -17,6 +18,13 @@ pub struct Mesh {
     pub vertex_colors: Option<Vec<[u8; 4]>>,
     /// Per-face RGBA colours.
     pub face_colors: Option<Vec<[u8; 4]>>,
+    /// Texture coordinates (u, v) of each face's three corners, in face
+    /// order (OBJ's `vt`: v points up, see [`super::texture`]). A face whose
+    /// corners carry NaN has no texture (its material had none, or another
+    /// image than [`Mesh::texture`]).
+    pub uvs: Option<Vec<[[f32; 2]; 3]>>,
+    /// The texture image the `uvs` index (OBJ `map_Kd`).
+    pub texture: Option<Box<Texture>>,
     /// Per-vertex scalars the pipeline uses by name, such as Poisson `density`.
     pub vertex_scalars: Vec<(String, Vec<f32>)>,
     /// Everything else from the source file (extra face properties live in
@@ -72,6 +80,14 @@ impl Mesh {
             self.face_colors.as_ref().map(Vec::len),
             self.faces.len(),
         )?;
+        check(
+            "texture coordinates",
+            self.uvs.as_ref().map(Vec::len),
+            self.faces.len(),
+        )?;
+        if let Some(t) = &self.texture {
+            t.validate()?;
+        }
         for (n, v) in &self.vertex_scalars {
             check(n, Some(v.len()), nv)?;
         }

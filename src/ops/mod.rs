@@ -2,6 +2,7 @@
 //! Rust on model types), its clap arguments and `run`, which only resolves
 //! files, progress and output.
 
+pub mod bake_texture;
 pub mod bind_gaussians;
 pub mod chamfer;
 pub mod clean;

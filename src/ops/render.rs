@@ -40,13 +40,24 @@ pub enum DepthKind {
     Expected,
 }
 
+/// How `render` colours a mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Shading {
+    /// Colour × a head light, 0.2 + 0.8·|n·view| (shows the shape).
+    Lit,
+    /// The colour as it is: texture or vertex colours, no light (what the
+    /// mesh's colours were baked from, e.g. `bake-texture`).
+    None,
+}
+
 /// Arguments of `render`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
   render point_cloud.ply --cameras cameras.json -o renders/
   render scene.pt --cameras sparse/0 -o renders/ --compare images/ --json
   render mesh.ply --cameras cameras.npz -o depth/ --outputs depth --depth-scale 1000
-  render biker.ply --orbit 8 --up 0,-1,0 -o orbit/     # no camera file: orbit the scene")]
+  render biker.ply --orbit 8 --up 0,-1,0 -o orbit/     # no camera file: orbit the scene
+  render textured.obj --cameras cameras.json --shading none -o views/  # texture as baked")]
 pub struct RenderArgs {
     /// Scene: 3DGS Gaussian PLY, Triangle Splatting `.pt` or soup PLY, or a
     /// mesh (PLY, OBJ, OFF, glTF/GLB).
@@ -76,6 +87,11 @@ pub struct RenderArgs {
     /// Background colour r,g,b in [0, 1].
     #[arg(long, value_delimiter = ',', default_value = "0,0,0")]
     pub background: Vec<f32>,
+    /// Mesh colouring: `lit` multiplies the colour (texture, vertex colours,
+    /// else grey 0.8) by a head light 0.2 + 0.8·|n·view|; `none` gives the
+    /// colour as it is. Splats ignore it.
+    #[arg(long, value_enum, default_value = "lit")]
+    pub shading: Shading,
     /// Near plane (camera z) for splats and meshes.
     #[arg(long, default_value_t = 0.2, value_parser = nonneg_f64)]
     pub near: f64,
@@ -161,9 +177,18 @@ fn stem(cam: &Camera, i: usize) -> String {
     }
 }
 
-/// Shades a mesh z-buffer: vertex colours when present, else grey with a
-/// head light (|n·view|); alpha = coverage.
-fn shade_mesh(m: &Mesh, z: &zbuffer::MeshRender, bg: [f32; 3]) -> RenderOutput {
+/// Shades a mesh z-buffer; alpha = coverage. The colour of a pixel is, in
+/// order of preference: the texture sampled (bilinear, see
+/// [`model::texture`]) at the perspective-correct interpolation of its
+/// face's corner UVs, when the mesh has a texture and the face finite UVs;
+/// the barycentric interpolation of the vertex colours; grey 0.8. `Lit`
+/// multiplies it by a head light 0.2 + 0.8·|n·view|; `None` keeps it.
+pub fn shade_mesh(
+    m: &Mesh,
+    z: &zbuffer::MeshRender,
+    bg: [f32; 3],
+    shading: Shading,
+) -> RenderOutput {
     let n = z.width * z.height;
     let mut out = RenderOutput {
         width: z.width,
@@ -182,26 +207,40 @@ fn shade_mesh(m: &Mesh, z: &zbuffer::MeshRender, bg: [f32; 3]) -> RenderOutput {
         }
         out.alpha[i] = 1.0;
         out.count[i] = 1;
-        let light = 0.2 + 0.8 * (-z.normal[i][2]).max(0.0);
-        out.rgb[i] = match &m.vertex_colors {
-            Some(c) => {
+        let light = match shading {
+            Shading::Lit => 0.2 + 0.8 * (-z.normal[i][2]).max(0.0),
+            Shading::None => 1.0,
+        };
+        let [u, v] = z.bary[i];
+        let w = [1.0 - u - v, u, v];
+        let textured = match (&m.texture, &m.uvs) {
+            (Some(t), Some(uvs)) => {
+                let c = uvs[f as usize];
+                let uv: [f32; 2] = std::array::from_fn(|k| (0..3).map(|j| w[j] * c[j][k]).sum());
+                uv.iter()
+                    .all(|x| x.is_finite())
+                    .then(|| t.sample(uv[0], uv[1]))
+            }
+            _ => None,
+        };
+        let colour = match (textured, &m.vertex_colors) {
+            (Some(c), _) => c,
+            (None, Some(c)) => {
                 let face = m.faces[f as usize];
-                let [u, v] = z.bary[i];
-                let w = [1.0 - u - v, u, v];
                 std::array::from_fn(|k| {
                     (0..3)
                         .map(|j| w[j] * c[face[j] as usize][k] as f32 / 255.0)
                         .sum::<f32>()
-                        * light
                 })
             }
-            None => [0.8 * light; 3],
+            (None, None) => [0.8; 3],
         };
+        out.rgb[i] = colour.map(|c| c * light);
     }
     out
 }
 
-fn render_view(scene: &Raster, cam: &Camera, s: &RasterSettings) -> RenderOutput {
+fn render_view(scene: &Raster, cam: &Camera, s: &RasterSettings, shading: Shading) -> RenderOutput {
     match scene {
         Raster::Gaussians(g) => gaussian::render(g, cam, s),
         Raster::Triangles(t) => triangle::render(t, cam, s),
@@ -209,6 +248,7 @@ fn render_view(scene: &Raster, cam: &Camera, s: &RasterSettings) -> RenderOutput
             m,
             &zbuffer::render(&m.vertices, &m.faces, cam, s.near),
             s.background,
+            shading,
         ),
     }
 }
@@ -333,6 +373,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let scene = load_scene(&args.scene)
         .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
+    if let Raster::Mesh(m) = &scene
+        && m.uvs.is_some()
+        && m.texture.is_none()
+    {
+        args.common.say(format!(
+            "note: {} has texture coordinates but no texture image was found (mtllib / \
+             map_Kd PNG next to it); rendering its vertex colours or grey",
+            shown(&args.scene, false)
+        ));
+    }
     let cams = match (&args.cameras, &orbit) {
         (Some(p), _) => {
             read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?
@@ -374,7 +424,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut views = Vec::new();
     let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
     for (i, cam) in cams.iter().enumerate() {
-        let out = render_view(&scene, cam, &s);
+        let out = render_view(&scene, cam, &s, args.shading);
         let st = stem(cam, i);
         let files = write_view(
             &out,
@@ -446,4 +496,156 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ));
     args.common.emit_json(&report)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DMat3, DVec3};
+
+    use super::*;
+    use crate::model::Texture;
+
+    /// A 64×64 camera at the origin looking down +z (OpenCV axes), f = 60.
+    fn camera() -> Camera {
+        Camera::pinhole(
+            "c",
+            64,
+            64,
+            60.0,
+            60.0,
+            32.0,
+            32.0,
+            DMat3::IDENTITY,
+            DVec3::ZERO,
+        )
+    }
+
+    /// The square x, y ∈ [−1, 1] at z = 3 (two triangles), tilted by
+    /// `tilt` radians about the y axis.
+    fn quad(tilt: f64) -> Mesh {
+        let v = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]].map(|[x, y]| {
+            let (s, c) = tilt.sin_cos();
+            [(x * c) as f32, y as f32, (3.0 + x * s) as f32]
+        });
+        Mesh::new(v.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
+    }
+
+    fn shade(m: &Mesh, shading: Shading) -> RenderOutput {
+        let cam = camera();
+        shade_mesh(
+            m,
+            &zbuffer::render(&m.vertices, &m.faces, &cam, 0.1),
+            [0.0; 3],
+            shading,
+        )
+    }
+
+    /// Unlit vertex colours: a colour linear in x and y, which both
+    /// triangles interpolate exactly, against the image computed from the
+    /// pixel rays; and a constant colour reproduced exactly.
+    #[test]
+    fn unlit_vertex_colours_match_the_analytic_image() {
+        let mut m = quad(0.0);
+        let colour = |x: f32, y: f32| [(x + 1.0) / 2.0, (y + 1.0) / 2.0, 128.0 / 255.0];
+        m.vertex_colors = Some(
+            m.vertices
+                .iter()
+                .map(|p| {
+                    let c = colour(p[0], p[1]).map(|v| (v * 255.0).round() as u8);
+                    [c[0], c[1], c[2], 255]
+                })
+                .collect(),
+        );
+        let out = shade(&m, Shading::None);
+        let cam = camera();
+        let expect: Vec<[f32; 3]> = (0..64 * 64)
+            .map(|i| {
+                let (px, py) = ((i % 64) as f64 + 0.5, (i / 64) as f64 + 0.5);
+                let (x, y) = ((px - cam.cx) / cam.fx * 3.0, (py - cam.cy) / cam.fy * 3.0);
+                if x.abs() <= 1.0 && y.abs() <= 1.0 {
+                    colour(x as f32, y as f32)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        let p = psnr(&out.rgb, &expect);
+        eprintln!("unlit vertex colours vs the analytic image: {p:.1} dB");
+        assert!(p >= 50.0, "PSNR {p:.1} dB");
+        // a constant colour is given exactly at every covered pixel
+        m.vertex_colors = Some(vec![[200, 100, 50, 255]; 4]);
+        let out = shade(&m, Shading::None);
+        let want = [200.0 / 255.0, 100.0 / 255.0, 50.0 / 255.0];
+        let covered: Vec<_> = (0..out.rgb.len()).filter(|&i| out.alpha[i] > 0.0).collect();
+        assert!(covered.len() > 1000);
+        for i in covered {
+            for (got, want) in out.rgb[i].iter().zip(want) {
+                assert!((got - want).abs() < 1e-6, "{:?}", out.rgb[i]);
+            }
+        }
+    }
+
+    #[test]
+    fn lit_is_darker_than_unlit_on_a_tilted_face() {
+        let mut m = quad(0.8);
+        m.vertex_colors = Some(vec![[200, 200, 200, 255]; 4]);
+        let mean = |o: &RenderOutput| o.rgb.iter().map(|c| c[0] as f64).sum::<f64>();
+        let (lit, none) = (shade(&m, Shading::Lit), shade(&m, Shading::None));
+        assert!(
+            mean(&lit) < 0.9 * mean(&none),
+            "{} {}",
+            mean(&lit),
+            mean(&none)
+        );
+        // untextured, uncoloured: grey 0.8, unlit
+        m.vertex_colors = None;
+        let o = shade(&m, Shading::None);
+        assert!(
+            o.rgb
+                .iter()
+                .zip(&o.alpha)
+                .all(|(c, &a)| a == 0.0 || *c == [0.8; 3])
+        );
+    }
+
+    /// A textured quad: texel (col, row) of a 4×4 image shows at the pixel
+    /// where its centre lands, v pointing up (row 0 at the top of the view,
+    /// since the camera's y axis points down and v = 1 is at y = −1).
+    #[test]
+    fn textured_quad_samples_the_right_texels() {
+        let mut m = quad(0.0);
+        // corners (−1,−1) (1,−1) (1,1) (−1,1): top-left, top-right, bottom-right, bottom-left in the view
+        let uv = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+        m.uvs = Some(m.faces.iter().map(|f| f.map(|i| uv[i as usize])).collect());
+        let pixels: Vec<[u8; 3]> = (0..16u8)
+            .map(|i| [i * 16, 255 - i * 16, (i % 4) * 60])
+            .collect();
+        m.texture = Some(Box::new(Texture {
+            name: "t.png".into(),
+            width: 4,
+            height: 4,
+            pixels: pixels.clone(),
+        }));
+        m.vertex_colors = Some(vec![[0, 0, 0, 255]; 4]); // the texture wins
+        let out = shade(&m, Shading::None);
+        for row in 0..4 {
+            for col in 0..4 {
+                // texel centre in world x, y, then its pixel (f = 60, z = 3: 20 px per unit)
+                let (x, y) = (
+                    -1.0 + (col as f64 + 0.5) / 2.0,
+                    -1.0 + (row as f64 + 0.5) / 2.0,
+                );
+                let (px, py) = ((32.0 + 20.0 * x) as usize, (32.0 + 20.0 * y) as usize);
+                let got = out.rgb[py * 64 + px];
+                let want = pixels[row * 4 + col].map(|v| v as f32 / 255.0);
+                for k in 0..3 {
+                    // the pixel centre is 0.5 px (1/40 texel) from the texel centre
+                    assert!(
+                        (got[k] - want[k]).abs() < 0.05,
+                        "texel {col},{row}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+    }
 }

@@ -50,7 +50,8 @@ impl GltfWriteOptions {
 /// A copy of `mesh` with three vertices per face (vertex `3i + k` is corner
 /// `k` of face `i`; positions, normals and vertex colours copied) whose vertex
 /// colours are the face colours (when the mesh has face colours). Face
-/// colours are kept; scalars and extras are dropped.
+/// colours, texture coordinates and texture are kept; scalars and extras
+/// are dropped.
 pub fn face_colors_to_corners(mesh: &Mesh) -> Mesh {
     let corners = || {
         mesh.faces
@@ -76,6 +77,8 @@ pub fn face_colors_to_corners(mesh: &Mesh) -> Mesh {
         normals,
         vertex_colors,
         face_colors: mesh.face_colors.clone(),
+        uvs: mesh.uvs.clone(),
+        texture: mesh.texture.clone(),
         ..Default::default()
     }
 }

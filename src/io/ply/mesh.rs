@@ -75,6 +75,8 @@ pub fn mesh_from_ply(name: &str, mut ply: Ply) -> Result<Mesh> {
         vertex_colors,
         face_colors,
         vertex_scalars,
+        uvs: None,
+        texture: None,
         extras: Extras {
             item: extra_face,
             vertex: extra_vertex,

@@ -1,0 +1,3 @@
+fn main() {
+    splatkit::app::bake_texture_main()
+}
