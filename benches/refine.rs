@@ -144,8 +144,7 @@ fn main() {
     }
     println!(
         "  {:<22} {:.3} s (Adam: the rest of the iteration)",
-        "listed stages",
-        listed
+        "listed stages", listed
     );
     println!("  normal-consistency pairs built once in {nc_build:.3} s");
     println!("peak memory {:.0} MB", peak_mb());

@@ -99,6 +99,21 @@ fn bound_ply_round_trips_and_renders_like_the_model() {
     let in_memory = render(&to_raster(&b, 3), &cam, &RasterSettings::default());
     assert_eq!(from_file.rgb, in_memory.rgb);
     assert!(from_file.alpha.iter().any(|&a| a > 0.5));
+    // 3DGS readers: `vertex` is the first element (graphdeco's load_ply reads
+    // elements[0]) and no property is a list (the PlayCanvas engine's reader,
+    // which SuperSplat uses, throws on `property list`)
+    let bytes = std::fs::read(&b1).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap();
+    let header = String::from_utf8_lossy(&bytes[..end]);
+    let elements: Vec<&str> = header
+        .lines()
+        .filter(|l| l.starts_with("element "))
+        .collect();
+    assert!(elements[0].starts_with("element vertex "), "{header}");
+    assert!(!header.contains("property list"), "{header}");
     // info says it is bound
     let out = run("info", &[p(&b1)], None);
     succeeds(&out);

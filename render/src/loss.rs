@@ -6,6 +6,8 @@
 //! PyTorch's `conv2d(padding = 5)`, C1 = 0.01², C2 = 0.03², averaged over the
 //! full image and the three channels — the 3DGS `ssim()` exactly.
 
+use rayon::prelude::*;
+
 /// Mean absolute error.
 pub fn l1(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     assert_eq!(a.len(), b.len(), "images of different sizes");
@@ -74,34 +76,40 @@ fn window() -> [f64; 11] {
 }
 
 /// Separable 11×11 Gaussian filter with zero padding (symmetric, so it is
-/// also its own adjoint).
+/// also its own adjoint). Rows of each pass run in parallel; every output
+/// value is the same fixed-order sum, so the result does not depend on the
+/// thread count.
 fn blur(x: &[f64], w: usize, h: usize, g: &[f64; 11]) -> Vec<f64> {
     let mut tmp = vec![0.0; w * h];
-    for y in 0..h {
-        for xx in 0..w {
-            let mut acc = 0.0;
-            for (k, gk) in g.iter().enumerate() {
-                let sx = xx as isize + k as isize - 5;
-                if sx >= 0 && (sx as usize) < w {
-                    acc += gk * x[y * w + sx as usize];
+    tmp.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            let src = &x[y * w..(y + 1) * w];
+            for (xx, t) in row.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (k, gk) in g.iter().enumerate() {
+                    let sx = xx as isize + k as isize - 5;
+                    if sx >= 0 && (sx as usize) < w {
+                        acc += gk * src[sx as usize];
+                    }
                 }
+                *t = acc;
             }
-            tmp[y * w + xx] = acc;
-        }
-    }
+        });
     let mut out = vec![0.0; w * h];
-    for y in 0..h {
-        for xx in 0..w {
-            let mut acc = 0.0;
+    out.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
             for (k, gk) in g.iter().enumerate() {
                 let sy = y as isize + k as isize - 5;
                 if sy >= 0 && (sy as usize) < h {
-                    acc += gk * tmp[sy as usize * w + xx];
+                    let src = &tmp[sy as usize * w..(sy as usize + 1) * w];
+                    for (o, v) in row.iter_mut().zip(src) {
+                        *o += gk * v;
+                    }
                 }
             }
-            out[y * w + xx] = acc;
-        }
-    }
+        });
     out
 }
 
@@ -127,52 +135,63 @@ fn ssim_impl(
     assert_eq!(b.len(), w * h, "image b is not {w}×{h}");
     let g = window();
     let n = (w * h * 3).max(1) as f64;
-    let mut total = 0.0;
-    let mut out = grad.then(|| vec![[0.0f32; 3]; w * h]);
-    for ch in 0..3 {
-        let x: Vec<f64> = a.iter().map(|p| p[ch] as f64).collect();
-        let y: Vec<f64> = b.iter().map(|p| p[ch] as f64).collect();
-        let sq = |v: &[f64], u: &[f64]| v.iter().zip(u).map(|(p, q)| p * q).collect::<Vec<_>>();
-        let mx = blur(&x, w, h, &g);
-        let my = blur(&y, w, h, &g);
-        let sxx = blur(&sq(&x, &x), w, h, &g);
-        let syy = blur(&sq(&y, &y), w, h, &g);
-        let sxy = blur(&sq(&x, &y), w, h, &g);
-        let mut da = vec![0.0; w * h];
-        let mut db = vec![0.0; w * h];
-        let mut dd = vec![0.0; w * h];
-        for i in 0..w * h {
-            let (ux, uy) = (mx[i], my[i]);
-            let vx = sxx[i] - ux * ux;
-            let vy = syy[i] - uy * uy;
-            let cxy = sxy[i] - ux * uy;
-            let n1 = 2.0 * ux * uy + C1;
-            let n2 = 2.0 * cxy + C2;
-            let d1 = ux * ux + uy * uy + C1;
-            let d2 = vx + vy + C2;
-            let s = n1 * n2 / (d1 * d2);
-            total += s;
-            if grad {
-                // S as a function of μx, Sxx = blur(x²), Sxy = blur(xy)
-                let ds_dvx = -s / d2;
-                let ds_dcxy = 2.0 * n1 / (d1 * d2);
-                da[i] = 2.0 * uy * n2 / (d1 * d2)
-                    - 2.0 * ux * s / d1
-                    - 2.0 * ux * ds_dvx
-                    - uy * ds_dcxy;
-                db[i] = ds_dvx;
-                dd[i] = ds_dcxy;
-            }
-        }
-        if let Some(o) = out.as_mut() {
-            let ba = blur(&da, w, h, &g);
-            let bb = blur(&db, w, h, &g);
-            let bd = blur(&dd, w, h, &g);
+    // the three channels in parallel; totals summed in channel order
+    let per: Vec<(f64, Option<Vec<f64>>)> = (0..3)
+        .into_par_iter()
+        .map(|ch| {
+            let mut total = 0.0;
+            let x: Vec<f64> = a.iter().map(|p| p[ch] as f64).collect();
+            let y: Vec<f64> = b.iter().map(|p| p[ch] as f64).collect();
+            let sq = |v: &[f64], u: &[f64]| v.iter().zip(u).map(|(p, q)| p * q).collect::<Vec<_>>();
+            let mx = blur(&x, w, h, &g);
+            let my = blur(&y, w, h, &g);
+            let sxx = blur(&sq(&x, &x), w, h, &g);
+            let syy = blur(&sq(&y, &y), w, h, &g);
+            let sxy = blur(&sq(&x, &y), w, h, &g);
+            let mut da = vec![0.0; if grad { w * h } else { 0 }];
+            let mut db = da.clone();
+            let mut dd = da.clone();
             for i in 0..w * h {
-                o[i][ch] = ((ba[i] + 2.0 * x[i] * bb[i] + y[i] * bd[i]) / n) as f32;
+                let (ux, uy) = (mx[i], my[i]);
+                let vx = sxx[i] - ux * ux;
+                let vy = syy[i] - uy * uy;
+                let cxy = sxy[i] - ux * uy;
+                let n1 = 2.0 * ux * uy + C1;
+                let n2 = 2.0 * cxy + C2;
+                let d1 = ux * ux + uy * uy + C1;
+                let d2 = vx + vy + C2;
+                let s = n1 * n2 / (d1 * d2);
+                total += s;
+                if grad {
+                    // S as a function of μx, Sxx = blur(x²), Sxy = blur(xy)
+                    let ds_dvx = -s / d2;
+                    let ds_dcxy = 2.0 * n1 / (d1 * d2);
+                    da[i] = 2.0 * uy * n2 / (d1 * d2)
+                        - 2.0 * ux * s / d1
+                        - 2.0 * ux * ds_dvx
+                        - uy * ds_dcxy;
+                    db[i] = ds_dvx;
+                    dd[i] = ds_dcxy;
+                }
             }
-        }
-    }
+            let gch = grad.then(|| {
+                let ba = blur(&da, w, h, &g);
+                let bb = blur(&db, w, h, &g);
+                let bd = blur(&dd, w, h, &g);
+                (0..w * h)
+                    .map(|i| (ba[i] + 2.0 * x[i] * bb[i] + y[i] * bd[i]) / n)
+                    .collect()
+            });
+            (total, gch)
+        })
+        .collect();
+    let total = per[0].0 + per[1].0 + per[2].0;
+    let out = grad.then(|| {
+        let c: Vec<&Vec<f64>> = per.iter().map(|p| p.1.as_ref().expect("grad")).collect();
+        (0..w * h)
+            .map(|i| [c[0][i] as f32, c[1][i] as f32, c[2][i] as f32])
+            .collect()
+    });
     (total / n, out)
 }
 

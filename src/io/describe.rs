@@ -264,7 +264,7 @@ fn describe_ply(opened: &any::Opened, info: &mut FileInfo) -> Result<()> {
                 info.binding = Some(BindingInfo {
                     mesh_vertices: v.count,
                     mesh_faces: f.count,
-                    per_face: if f.count > 0 { g / f.count } else { 0 },
+                    per_face: g.checked_div(f.count).unwrap_or(0),
                 });
             }
         }

@@ -8,10 +8,11 @@
 //!    `000007.png`, mask `007.png`).
 //!
 //! A camera without a file is an error naming the camera, the folder and the
-//! names tried. Sizes: an image must be the camera's size divided by
-//! `downscale` (cameras are scaled to it), or the camera's full size (then it
-//! is box-filtered by `downscale`); anything else is an error naming the file
-//! and both sizes. PNG (8/16-bit, grey/RGB/RGBA, alpha dropped) and baseline
+//! names tried. Sizes: cameras are scaled to 1/`downscale`; an image may be
+//! the camera's size divided by any divisor j of `downscale` (j = downscale:
+//! used as is; otherwise box-filtered by downscale / j, so DTU's half-size
+//! images serve `--downscale 2` and `4`); anything else is an error naming
+//! the file and both sizes. PNG (8/16-bit, grey/RGB/RGBA, alpha dropped) and baseline
 //! JPEG are read; values are scaled to [0, 1] without gamma change. A mask
 //! pixel is object where its value (blue byte, as OpenCV's channel 0) is
 //! non-zero, as the DTU tools read masks.
@@ -221,29 +222,31 @@ pub fn load_views(cameras: &[Camera], images: &Path, opts: &ViewOptions) -> Resu
         .map(|(cam, img, mask)| {
             let target = downscale_camera(cam, k);
             let (tw, th) = (target.width as usize, target.height as usize);
-            let fit = |w: usize, h: usize, file: &Path| -> Result<bool> {
-                if (w, h) == (tw, th) {
-                    Ok(false)
-                } else if k > 1 && (w, h) == (cam.width as usize, cam.height as usize) {
-                    Ok(true)
-                } else {
-                    Err(Error::invalid(format!(
-                        "{}: the image is {w}x{h} but camera {:?} is {}x{}{} (expected {tw}x{th})",
-                        file.display(),
-                        cam.name,
-                        cam.width,
-                        cam.height,
-                        if k > 1 {
-                            format!(" at --downscale {k}")
-                        } else {
-                            String::new()
-                        }
-                    )))
+            // the factor the file still has to be divided by: the file is the
+            // camera's size divided by some j that divides k (j = k: as is)
+            let fit = |w: usize, h: usize, file: &Path| -> Result<usize> {
+                let (cw, ch) = (cam.width as usize, cam.height as usize);
+                for j in (1..=k as usize).rev().filter(|j| (k as usize).is_multiple_of(*j)) {
+                    if (w, h) == (cw / j, ch / j) && (w / (k as usize / j), h / (k as usize / j)) == (tw, th) {
+                        return Ok(k as usize / j);
+                    }
                 }
+                Err(Error::invalid(format!(
+                    "{}: the image is {w}x{h} but camera {:?} is {cw}x{ch}{} (expected {tw}x{th}, or the \
+                     camera's size divided by a divisor of the downscale)",
+                    file.display(),
+                    cam.name,
+                    if k > 1 {
+                        format!(" at --downscale {k}")
+                    } else {
+                        String::new()
+                    }
+                )))
             };
             let rgb = read_rgb(img)?;
-            let image = if fit(rgb.width, rgb.height, img)? {
-                box_down(&rgb.pixels, rgb.width, k as usize, tw, th, |b| {
+            let f = fit(rgb.width, rgb.height, img)?;
+            let image = if f > 1 {
+                box_down(&rgb.pixels, rgb.width, f, tw, th, |b| {
                     let n = b.len() as f32;
                     std::array::from_fn(|c| b.iter().map(|p| p[c]).sum::<f32>() / n)
                 })
@@ -258,9 +261,10 @@ pub fn load_views(cameras: &[Camera], images: &Path, opts: &ViewOptions) -> Resu
                         bits,
                         ..
                     } = read_mask(mp)?;
-                    Some(if fit(width, height, mp)? {
+                    let f = fit(width, height, mp)?;
+                    Some(if f > 1 {
                         // object where most of the block is object
-                        box_down(&bits, width, k as usize, tw, th, |b| {
+                        box_down(&bits, width, f, tw, th, |b| {
                             2 * b.iter().filter(|&&x| x).count() >= b.len()
                         })
                     } else {

@@ -236,7 +236,7 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         let st = r.step(&views, &train);
         last_loss = st.loss;
         pb.inc(1);
-        if r.iteration() % 10 == 0 {
+        if r.iteration().is_multiple_of(10) {
             let rate = (r.iteration() - start) as f64 / t_loop.elapsed().as_secs_f64().max(1e-9);
             pb.set_message(format!(
                 "loss {:.4}  PSNR {:.2}  {rate:.2} it/s",
@@ -244,7 +244,11 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
             ));
         }
         let at = r.iteration();
-        if !test.is_empty() && args.eval_every > 0 && at % args.eval_every == 0 && at < iterations {
+        if !test.is_empty()
+            && args.eval_every > 0
+            && at.is_multiple_of(args.eval_every)
+            && at < iterations
+        {
             evals.push(r.evaluate(&views, &test));
         }
     }

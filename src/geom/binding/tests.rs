@@ -146,11 +146,11 @@ fn initial_values_are_sugars() {
             let w = b.bary_of(i);
             let face = m.faces[b.face_of(i)];
             let cols = m.vertex_colors.as_ref().unwrap();
-            for k in 0..3 {
+            for (k, dc) in b.sh_dc[i].iter().enumerate() {
                 let rgb: f32 = (0..3)
                     .map(|a| w[a] * cols[face[a] as usize][k] as f32 / 255.0)
                     .sum();
-                let back = splatkit_render::sh::sh_to_rgb(b.sh_dc[i][k]);
+                let back = splatkit_render::sh::sh_to_rgb(*dc);
                 assert!((back - rgb).abs() < 1e-5);
             }
         }
@@ -415,8 +415,8 @@ fn gradients_through_the_binding_match_finite_differences() {
         let img = render(&to_raster(b, 3), &cam, &s);
         let mut l = 0.0;
         for i in 0..npx {
-            for k in 0..3 {
-                l += img.rgb[i][k] as f64 * wr[i][k] as f64;
+            for (c, w) in img.rgb[i].iter().zip(&wr[i]) {
+                l += *c as f64 * *w as f64;
             }
             l += img.alpha[i] as f64 * wa[i] as f64;
         }

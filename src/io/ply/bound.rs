@@ -8,15 +8,18 @@
 //!   binding: `face_index` (int), `bary_0 bary_1 bary_2` (float, the table
 //!   row), `rot_re rot_im` (float, the unnormalised complex rotation);
 //! - `bound_vertex` (float x y z, optional uchar red green blue alpha) and
-//!   `bound_face` (`list uchar int vertex_indices`): the mesh the Gaussians
-//!   are bound to, as extra elements after `vertex`, which 3DGS readers skip;
+//!   `bound_face` (int vertex_0 vertex_1 vertex_2): the mesh the Gaussians
+//!   are bound to, as extra elements after `vertex`. graphdeco's `load_ply`
+//!   reads only `elements[0]`; the PlayCanvas engine's reader (SuperSplat)
+//!   reads every element's scalar properties and skips the ones it does not
+//!   use, but throws on any `property list`, hence three scalar ints;
 //! - a header comment `splatkit bound-gaussians per_face N`.
 //!
 //! Reading checks every part against the others (counts, the table, the face
 //! order, the thickness) and names the first inconsistency.
 
 use crate::model::bound::{BoundGaussians, barycentrics};
-use crate::model::{Column, Element, Gaussians, Mesh, Property, ScalarData, ScalarType};
+use crate::model::{Column, Element, Gaussians, Mesh, Property, ScalarData};
 use crate::{Error, Result};
 
 /// Names of the binding properties on `vertex`.
@@ -32,6 +35,9 @@ pub const BINDING_PROPERTIES: [&str; 6] = [
 pub const MESH_VERTEX: &str = "bound_vertex";
 /// Element holding the bound mesh's faces.
 pub const MESH_FACE: &str = "bound_face";
+/// Its three int properties (scalars, not a list: the PlayCanvas engine's
+/// PLY reader that SuperSplat loads files with refuses `property list`).
+pub const FACE_PROPERTIES: [&str; 3] = ["vertex_0", "vertex_1", "vertex_2"];
 const COMMENT: &str = "splatkit bound-gaussians per_face";
 
 /// True when a vertex property list carries a binding (`face_index` and
@@ -85,14 +91,14 @@ pub fn attach(b: &BoundGaussians, mut materialized: Gaussians) -> Gaussians {
         }
     }
     let mut fe = Element::new(MESH_FACE, m.faces.len());
-    fe.push(
-        "vertex_indices",
-        Column::List {
-            count_type: ScalarType::U8,
-            offsets: (0..=m.faces.len()).map(|i| 3 * i).collect(),
-            values: ScalarData::I32(m.faces.iter().flatten().map(|&v| v as i32).collect()),
-        },
-    );
+    for (k, name) in FACE_PROPERTIES.iter().enumerate() {
+        fe.push(
+            *name,
+            Column::Scalar(ScalarData::I32(
+                m.faces.iter().map(|f| f[k] as i32).collect(),
+            )),
+        );
+    }
     let els = &mut materialized.extras.elements;
     els.retain(|e| e.name != MESH_VERTEX && e.name != MESH_FACE);
     els.push(ve);
@@ -177,40 +183,30 @@ pub fn detach(name: &str, g: &Gaussians) -> Result<BoundGaussians> {
     } else {
         None
     };
-    let faces: Vec<[u32; 3]> = match fe.property("vertex_indices") {
-        Some(Column::List {
-            offsets, values, ..
-        }) => {
-            let vals = values.to_f64();
-            (0..fe.count)
-                .map(|f| {
-                    let (a, b) = (offsets[f], offsets[f + 1]);
-                    if b - a != 3 {
-                        return Err(bad(
-                            name,
-                            format!("{MESH_FACE} {f} has {} vertices, expected 3", b - a),
-                        ));
-                    }
-                    let idx = [vals[a], vals[a + 1], vals[a + 2]];
-                    if idx.iter().any(|&v| v < 0.0 || v >= ve.count as f64) {
-                        return Err(bad(
-                            name,
-                            format!(
-                                "{MESH_FACE} {f} references vertex {idx:?} outside the {} of {MESH_VERTEX}",
-                                ve.count
-                            ),
-                        ));
-                    }
-                    Ok(idx.map(|v| v as u32))
-                })
-                .collect::<Result<_>>()?
-        }
-        _ => {
-            return Err(bad(name, format!("{MESH_FACE} has no vertex_indices list")));
-        }
-    };
+    let corners: Vec<Vec<f64>> = FACE_PROPERTIES
+        .iter()
+        .map(|p| scalar_f64(name, fe, p))
+        .collect::<Result<_>>()?;
+    let faces: Vec<[u32; 3]> = (0..fe.count)
+        .map(|f| {
+            let idx = [corners[0][f], corners[1][f], corners[2][f]];
+            if idx
+                .iter()
+                .any(|&v| v < 0.0 || v >= ve.count as f64 || v.fract() != 0.0)
+            {
+                return Err(bad(
+                    name,
+                    format!(
+                        "{MESH_FACE} {f} references vertex {idx:?} outside the {} of {MESH_VERTEX}",
+                        ve.count
+                    ),
+                ));
+            }
+            Ok(idx.map(|v| v as u32))
+        })
+        .collect::<Result<_>>()?;
     let nf = faces.len();
-    if nf == 0 || n % nf != 0 {
+    if nf == 0 || !n.is_multiple_of(nf) {
         return Err(bad(
             name,
             format!("{n} Gaussians for {nf} bound faces: expected faces × 1, 3, 4 or 6"),
