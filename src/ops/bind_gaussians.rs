@@ -10,7 +10,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 
 use crate::cli::{Common, positive_f64, shown, usage};
-use crate::geom::binding::colors::dc_from_gaussians;
+use crate::geom::binding::colors::{dc_from_gaussians, rgb_from_views};
 use crate::geom::binding::rebind::{ScaleRule, rebind};
 use crate::geom::binding::{
     BindOptions, THICKNESS_FACTOR, bind, camera_extent, materialize, mean_of, mesh_radius,
@@ -18,6 +18,7 @@ use crate::geom::binding::{
 use crate::io::any::{load, load_bound, load_gaussians, load_mesh, save_gaussians};
 use crate::io::cameras::read_cameras;
 use crate::io::ply::bound::{attach, is_bound};
+use crate::io::views::{ViewOptions, load_views};
 use crate::model::{BoundGaussians, Scene};
 
 /// How in-plane scales follow an edit (`--scale-rule`).
@@ -35,6 +36,7 @@ pub enum ScaleRuleArg {
   bind-gaussians mesh.ply -o bound.ply                         # 1 Gaussian per triangle, vertex colours
   bind-gaussians mesh.ply --per-triangle 6 --cameras output/garden/cameras.json -o bound.ply
   bind-gaussians mesh.ply --colors-from output/garden/point_cloud/iteration_7000/point_cloud.ply -o bound.ply
+  bind-gaussians mesh.ply --images garden/images --cameras garden/sparse/0 -o bound.ply
   bind-gaussians bound.ply --rebind edited_mesh.obj -o bound_edited.ply
   bind-gaussians bound.ply --rebind pose_042.ply --scale-rule anisotropic -o frame_042.ply
 
@@ -63,6 +65,15 @@ pub struct BindGaussiansArgs {
     /// Gaussian of highest density weight among the 16 nearest centres.
     #[arg(long, value_name = "SCENE.ply", conflicts_with = "rebind")]
     pub colors_from: Option<PathBuf>,
+    /// Take each Gaussian's colour from these photos (named like --cameras'
+    /// views): the mean of the pixels its mean projects to in the views where
+    /// its face is visible (mesh z-buffer); unseen Gaussians keep the mesh colour.
+    #[arg(long, value_name = "DIR", requires = "cameras", conflicts_with_all = ["rebind", "colors_from"])]
+    pub images: Option<PathBuf>,
+    /// With --images: divide the cameras' resolution by this integer (images at
+    /// that size, or at the camera's size divided by a divisor of it).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64), requires = "images")]
+    pub downscale: u32,
     /// SH degree of the bound model (higher coefficients start at 0).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(0..=3))]
     pub sh_degree: u8,
@@ -181,6 +192,34 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
                 b.sh_dc = dc_from_gaussians(&at, &g)
                     .with_context(|| format!("colours from {}", shown(src, false)))?;
                 colors = "highest-weight source Gaussian";
+            }
+            if let (Some(dir), Some(cams)) = (&args.images, &args.cameras) {
+                let mut cams = read_cameras(cams)?;
+                cams.sort_by(|a, b| a.name.cmp(&b.name));
+                let views = load_views(
+                    &cams,
+                    dir,
+                    &ViewOptions {
+                        downscale: args.downscale,
+                        masks: None,
+                    },
+                )?;
+                let fallback: Vec<[f32; 3]> = b
+                    .sh_dc
+                    .iter()
+                    .map(|d| d.map(splatkit_render::sh::sh_to_rgb))
+                    .collect();
+                let (rgb, seen) = rgb_from_views(&b, &views, &fallback);
+                b.sh_dc = rgb
+                    .iter()
+                    .map(|c| c.map(splatkit_render::sh::rgb_to_sh))
+                    .collect();
+                let unseen = seen.iter().filter(|&&s| s == 0).count();
+                colors = if unseen == 0 {
+                    "photos (every Gaussian seen)"
+                } else {
+                    "photos (unseen Gaussians keep the mesh colour)"
+                };
             }
             (
                 b,

@@ -417,7 +417,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         .collect::<crate::Result<_>>()?;
     pb.finish_and_clear();
     if !args.common.quiet && !args.common.json_to_stdout() {
-        eprintln!("demo, part 1: Gaussian torus -> points -> mesh -> score");
+        eprintln!(
+            "demo, part 1: Gaussian torus -> points -> mesh -> score -> bound Gaussians -> refined"
+        );
         eprintln!("  {:<13} {:<78} {:>8}", "stage", "result", "seconds");
         for (stage, result, secs) in &rows {
             eprintln!("  {stage:<13} {result:<78} {secs:>8.2}");
@@ -435,7 +437,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             eprint!("{}", render_text(i));
         }
         eprintln!(
-            "outputs in {}: scene.ply cameras.json truth.ply points.ply mesh.ply view.png (part 1), scene.pt scene_soup.ply solid.pt solid.off solid.glb (part 2)",
+            "outputs in {}: scene.ply cameras.json truth.ply points.ply mesh.ply view.png bound.ply refined_bound.ply (part 1), scene.pt scene_soup.ply solid.pt solid.off solid.glb (part 2)",
             shown_dir(&args.output)
         );
     }

@@ -41,3 +41,59 @@ pub fn dc_from_gaussians(at: &[[f64; 3]], src: &Gaussians) -> Result<Vec<[f32; 3
         })
         .collect())
 }
+
+/// For each bound Gaussian, the mean colour of the photos at the pixel its
+/// mean projects to, over the views where it is visible: its face is the
+/// one the mesh z-buffer (`splatkit_render::mesh`) sees at that pixel.
+/// Returns linear RGB in [0, 1] and how many views saw each Gaussian;
+/// Gaussians no view sees keep `fallback`.
+pub fn rgb_from_views(
+    b: &crate::model::BoundGaussians,
+    views: &[crate::model::View],
+    fallback: &[[f32; 3]],
+) -> (Vec<[f32; 3]>, Vec<u32>) {
+    let n = b.len();
+    let means: Vec<glam::DVec3> = (0..n)
+        .map(|i| glam::DVec3::from_array(super::mean_of(b, i)))
+        .collect();
+    let mut sum = vec![[0.0f64; 3]; n];
+    let mut count = vec![0u32; n];
+    for v in views {
+        let z = splatkit_render::mesh::render(&b.mesh.vertices, &b.mesh.faces, &v.camera, 1e-6);
+        let (w, h) = (z.width, z.height);
+        let hits: Vec<Option<[f32; 3]>> = means
+            .par_iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let (px, _) = v.camera.project(*m)?;
+                if !(px.x >= 0.0 && px.y >= 0.0) {
+                    return None;
+                }
+                let (x, y) = (px.x as usize, px.y as usize);
+                if x >= w || y >= h {
+                    return None;
+                }
+                let o = y * w + x;
+                (z.face[o] as usize == b.face_of(i)).then(|| v.image[o])
+            })
+            .collect();
+        for (i, hit) in hits.into_iter().enumerate() {
+            if let Some(c) = hit {
+                for k in 0..3 {
+                    sum[i][k] += c[k] as f64;
+                }
+                count[i] += 1;
+            }
+        }
+    }
+    let rgb = (0..n)
+        .map(|i| {
+            if count[i] == 0 {
+                fallback[i]
+            } else {
+                sum[i].map(|s| (s / count[i] as f64) as f32)
+            }
+        })
+        .collect();
+    (rgb, count)
+}

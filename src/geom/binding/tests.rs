@@ -554,3 +554,59 @@ fn jacobian_values_match_the_forward_pass() {
         }
     }
 }
+
+/// Colours from photos: Gaussians whose face the camera sees take the
+/// photo's colour at their projected mean (a photo split in two colours,
+/// so the pixel must be the right one); Gaussians on a face hidden behind
+/// another keep the fallback.
+#[test]
+fn colours_from_views_take_the_visible_pixel() {
+    // two parallel squares facing the camera at z = 0 and z = 1 (hidden)
+    let sq = |z: f32| -> Vec<[f32; 3]> {
+        vec![
+            [-1.0, -1.0, z],
+            [1.0, -1.0, z],
+            [1.0, 1.0, z],
+            [-1.0, 1.0, z],
+        ]
+    };
+    let mut v = sq(0.0);
+    v.extend(sq(1.0));
+    let m = Mesh::new(v, vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]]);
+    let b = bind(&m, &opts(3), None).unwrap();
+    let cam = front_camera(64, 48);
+    let (w, h) = (64usize, 48usize);
+    let image: Vec<[f32; 3]> = (0..w * h)
+        .map(|i| {
+            if i % w < w / 2 {
+                [0.2, 0.6, 0.9]
+            } else {
+                [0.8, 0.1, 0.3]
+            }
+        })
+        .collect();
+    let view = crate::model::View {
+        camera: cam.clone(),
+        image,
+        mask: None,
+        source: "test".into(),
+    };
+    let fallback = vec![[0.5f32; 3]; b.len()];
+    let (rgb, seen) = colors::rgb_from_views(&b, &[view], &fallback);
+    for i in 0..b.len() {
+        let mu = DVec3::from_array(mean_of(&b, i));
+        if b.face_of(i) >= 2 {
+            assert_eq!(seen[i], 0, "hidden face");
+            assert_eq!(rgb[i], [0.5; 3]);
+        } else {
+            assert_eq!(seen[i], 1);
+            let (px, _) = cam.project(mu).unwrap();
+            let want = if (px.x as usize) < w / 2 {
+                [0.2, 0.6, 0.9]
+            } else {
+                [0.8, 0.1, 0.3]
+            };
+            assert_eq!(rgb[i], want, "gaussian {i}");
+        }
+    }
+}
