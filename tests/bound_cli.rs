@@ -277,12 +277,11 @@ fn refine_names_missing_and_mis_sized_images() {
     succeeds(&run("bind-gaussians", &[p(&m), "-o", p(&b), "-q"], None));
     let (imgs, cj) = photos(dir.path(), &b);
     let out = dir.path().join("out");
-    std::fs::remove_file(imgs.join("v03.png")).unwrap();
-    fails(
-        &run(
+    let refine = |input: &Path| {
+        run(
             "refine",
             &[
-                p(&b),
+                p(input),
                 "--images",
                 p(&imgs),
                 "--cameras",
@@ -291,47 +290,15 @@ fn refine_names_missing_and_mis_sized_images() {
                 p(&out),
             ],
             None,
-        ),
-        1,
-        &["camera \"v03\"", "no image"],
-    );
+        )
+    };
+    std::fs::remove_file(imgs.join("v03.png")).unwrap();
+    fails(&refine(&b), 1, &["camera \"v03\"", "no image"]);
     let mut f = std::fs::File::create(imgs.join("v03.png")).unwrap();
     write_png8(&mut f, "v03", 20, 16, 3, &[100u8; 20 * 16 * 3]).unwrap();
     drop(f);
-    fails(
-        &run(
-            "refine",
-            &[
-                p(&b),
-                "--images",
-                p(&imgs),
-                "--cameras",
-                p(&cj),
-                "-o",
-                p(&out),
-            ],
-            None,
-        ),
-        1,
-        &["v03.png", "20x16", "32x32"],
-    );
+    fails(&refine(&b), 1, &["v03.png", "20x16", "32x32"]);
     // a plain mesh is not a bound file
-    fails(
-        &run(
-            "refine",
-            &[
-                p(&m),
-                "--images",
-                p(&imgs),
-                "--cameras",
-                p(&cj),
-                "-o",
-                p(&out),
-            ],
-            None,
-        ),
-        1,
-        &["sphere.ply"],
-    );
+    fails(&refine(&m), 1, &["sphere.ply"]);
     assert!(!out.exists(), "no output folder left behind");
 }

@@ -8,14 +8,17 @@
 //!   in-plane scales × (mean side length of the edited face / of the
 //!   original face); rotations unchanged, since the complex number is
 //!   relative to the face frame.
-//! - [`ScaleRule::Anisotropic`] (SuGaR's `get_edited_quaternions_and_scales`
-//!   "new method"): with a_k = v_k − centroid per face vertex,
-//!   (a) the signed in-plane angle of a_k against the edge v0 − v1 is taken
-//!   in both meshes, its change is interpolated with the Gaussian's
-//!   barycentrics and applied as an extra complex rotation;
-//!   (b) each in-plane axis R (of the original mesh) is stretched by
-//!   Σ_k b_k·√((⟨R, â_k⟩·‖a_k‖′/‖a_k‖)² + ⟨R, ô_k⟩²) with â_k = a_k/‖a_k‖
-//!   and ô_k = â_k × normal, both in the original mesh.
+//! - [`ScaleRule::Anisotropic`] (SuGaR's `get_edited_quaternions_and_scales`,
+//!   the code's default "new method"), as the code computes it:
+//!   (a) per face vertex k, the unsigned angle (arccos) between the unit
+//!   direction centroid → v_k (reversed for k = 2) and the unit edge
+//!   v0 − v1 is taken in both meshes; the change, interpolated with the
+//!   Gaussian's barycentrics, turns the complex number;
+//!   (b) with the turned rotation's in-plane axes R in the edited face, the
+//!   edited face's unit directions â_k (vertex → centroid), ô_k = â_k × its
+//!   normal and the length ratios ρ_k = ‖a_k‖ edited / ‖a_k‖ original, each
+//!   in-plane scale is multiplied by Σ_k b_k·√((⟨R, â_k⟩·ρ_k)² + ⟨R, ô_k⟩²).
+//!   The stored complex number is the turned one (unnormalised as given).
 //!
 //! Faces that are degenerate in either mesh keep their scales and rotations.
 //! The thickness is not changed (SuGaR keeps it constant).
@@ -94,37 +97,53 @@ pub fn rebind(
                 }
             }
             ScaleRule::Anisotropic => {
-                let (Some(frr), Some(frc)) = (face_frame(vr), face_frame(vc)) else {
+                let (Some(_), Some(frc)) = (face_frame(vr), face_frame(vc)) else {
                     continue;
+                };
+                let len = |a: [f64; 3]| dot3(a, a).sqrt();
+                let unit = |a: [f64; 3]| {
+                    let l = len(a).max(1e-300);
+                    a.map(|x| x / l)
                 };
                 let cen = |v: &[[f64; 3]; 3]| -> [f64; 3] {
                     std::array::from_fn(|k| (v[0][k] + v[1][k] + v[2][k]) / 3.0)
                 };
                 let (cr, cc) = (cen(&vr), cen(&vc));
-                let ar: [[f64; 3]; 3] = std::array::from_fn(|k| sub3(vr[k], cr));
-                let ac: [[f64; 3]; 3] = std::array::from_fn(|k| sub3(vc[k], cc));
-                let angle = |a: [f64; 3], fr: &[[f64; 3]; 3]| dot3(a, fr[2]).atan2(dot3(a, fr[1]));
-                let len = |a: [f64; 3]| dot3(a, a).sqrt();
-                let dang: [f64; 3] =
-                    std::array::from_fn(|k| wrap_angle(angle(ac[k], &frc) - angle(ar[k], &frr)));
+                // (a) unsigned angles of the centroid-to-vertex directions
+                // (the third one reversed, as SuGaR does) against v0 − v1
+                let angles = |v: &[[f64; 3]; 3], c: [f64; 3]| -> [f64; 3] {
+                    let base = unit(sub3(v[0], v[1]));
+                    std::array::from_fn(|k| {
+                        let mut a = unit(sub3(v[k], c));
+                        if k == 2 {
+                            a = a.map(|x| -x);
+                        }
+                        dot3(a, base).clamp(-1.0, 1.0).acos()
+                    })
+                };
+                let (ar, ac) = (angles(&vr, cr), angles(&vc, cc));
+                // (b) vertex directions and their in-plane orthogonals in the
+                // edited face, and the length ratios
+                let dirs: [[f64; 3]; 3] = std::array::from_fn(|k| sub3(cc, vc[k]));
                 let ratio: [f64; 3] = std::array::from_fn(|k| {
-                    let (l0, l1) = (len(ar[k]), len(ac[k]));
+                    let (l0, l1) = (len(sub3(cr, vr[k])), len(dirs[k]));
                     if l0 > 0.0 { l1 / l0 } else { 1.0 }
                 });
-                let unit: [[f64; 3]; 3] = std::array::from_fn(|k| {
-                    let l = len(ar[k]).max(1e-300);
-                    ar[k].map(|x| x / l)
-                });
+                let axis: [[f64; 3]; 3] = std::array::from_fn(|k| unit(dirs[k]));
                 let orth: [[f64; 3]; 3] =
-                    std::array::from_fn(|k| splatkit_render::dual::cross3(unit[k], frr[0]));
+                    std::array::from_fn(|k| splatkit_render::dual::cross3(axis[k], frc[0]));
                 for i in f * n..(f + 1) * n {
                     let w = b.bary_of(i).map(f64::from);
+                    let d: f64 = (0..3).map(|k| w[k] * (ac[k] - ar[k])).sum();
                     let c = b.complex[i].map(f64::from);
-                    let cols = rotation_columns(frr, c);
+                    let (sn, cs) = d.sin_cos();
+                    let adj = [c[0] * cs - c[1] * sn, c[0] * sn + c[1] * cs];
+                    out.complex[i] = adj.map(|x| x as f32);
+                    let cols = rotation_columns(frc, adj);
                     let stretch = |r: [f64; 3]| -> f64 {
                         (0..3)
                             .map(|k| {
-                                let p = dot3(r, unit[k]) * ratio[k];
+                                let p = dot3(r, axis[k]) * ratio[k];
                                 let o = dot3(r, orth[k]);
                                 w[k] * (p * p + o * o).sqrt()
                             })
@@ -137,9 +156,6 @@ pub fn rebind(
                             (b.log_scales[i][1] as f64 + f2.ln()) as f32,
                         ];
                     }
-                    let d: f64 = (0..3).map(|k| w[k] * dang[k]).sum();
-                    let (s, co) = d.sin_cos();
-                    out.complex[i] = [(c[0] * co - c[1] * s) as f32, (c[0] * s + c[1] * co) as f32];
                 }
             }
         }

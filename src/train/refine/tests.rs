@@ -213,29 +213,19 @@ fn resumed_refinement_equals_an_uninterrupted_one() {
 /// A checkpoint of another model (other Gaussian count) is refused.
 #[test]
 fn optimiser_state_of_another_model_is_refused() {
-    let a = bind(
-        &coarse_perturbed(4, 0.0, 1),
-        &BindOptions {
+    let one_per_face = |rings: usize| {
+        let opts = BindOptions {
             per_face: 1,
             thickness: 1e-5,
             sh_degree: 3,
-        },
-        None,
-    )
-    .unwrap();
+        };
+        bind(&coarse_perturbed(rings, 0.0, 1), &opts, None).unwrap()
+    };
+    let a = one_per_face(4);
     let cams = cameras_around(4, 3.0, 16, 16.0);
     let ra = Refiner::new(a.clone(), params(&a, &cams));
     let (s, g) = ra.optimizer_state();
-    let b = bind(
-        &coarse_perturbed(5, 0.0, 1),
-        &BindOptions {
-            per_face: 1,
-            thickness: 1e-5,
-            sh_degree: 3,
-        },
-        None,
-    )
-    .unwrap();
+    let b = one_per_face(5);
     let mut rb = Refiner::new(b.clone(), params(&b, &cams));
     let e = rb.restore(s, g).unwrap_err();
     assert!(e.contains("another model"), "{e}");
