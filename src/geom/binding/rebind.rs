@@ -47,12 +47,6 @@ fn mean_side(v: &[[f64; 3]; 3]) -> f64 {
         / 3.0
 }
 
-fn wrap_angle(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let r = (a + std::f64::consts::PI).rem_euclid(t) - std::f64::consts::PI;
-    if r <= -std::f64::consts::PI { r + t } else { r }
-}
-
 /// `b` bound to `edited` instead of its own mesh. The result carries
 /// `edited` as its mesh (so rebinding can be chained). Errors when the
 /// topology differs.
