@@ -114,6 +114,17 @@ fn bound_ply_round_trips_and_renders_like_the_model() {
         .collect();
     assert!(elements[0].starts_with("element vertex "), "{header}");
     assert!(!header.contains("property list"), "{header}");
+    // graphdeco sorts every property starting with `rot`, `scale_` or
+    // `f_rest_` by its numeric suffix: only the standard ones may match
+    for line in header.lines().filter(|l| l.starts_with("property ")) {
+        let name = line.split_whitespace().last().unwrap();
+        for prefix in ["rot", "scale_", "f_rest_", "f_dc_"] {
+            if let Some(rest) = name.strip_prefix(prefix) {
+                let suffix = rest.rsplit('_').next().unwrap();
+                assert!(suffix.parse::<u32>().is_ok(), "{name} would break load_ply");
+            }
+        }
+    }
     // info says it is bound
     let out = run("info", &[p(&b1)], None);
     succeeds(&out);

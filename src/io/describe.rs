@@ -257,7 +257,7 @@ fn describe_ply(opened: &any::Opened, info: &mut FileInfo) -> Result<()> {
             let bound_faces = h.element(crate::io::ply::bound::MESH_FACE);
             let bound_verts = h.element(crate::io::ply::bound::MESH_VERTEX);
             let has_binding = h.element("vertex").is_some_and(|v| {
-                v.index_of("face_index").is_some() && v.index_of("rot_re").is_some()
+                v.index_of("face_index").is_some() && v.index_of("complex_re").is_some()
             });
             if let (Some(f), Some(v), true) = (bound_faces, bound_verts, has_binding) {
                 let g = h.element("vertex").map_or(0, |v| v.count);

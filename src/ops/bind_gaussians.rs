@@ -41,7 +41,7 @@ pub enum ScaleRuleArg {
   bind-gaussians bound.ply --rebind pose_042.ply --scale-rule anisotropic -o frame_042.ply
 
 The output opens in any 3DGS viewer (SuperSplat, SIBR) and in `render`; it also carries
-the binding (face_index, bary_0..2, rot_re, rot_im) and the mesh (elements bound_vertex,
+the binding (face_index, bary_0..2, complex_re, complex_im) and the mesh (elements bound_vertex,
 bound_face), so `--rebind` and `refine` need nothing else.")]
 pub struct BindGaussiansArgs {
     /// A mesh to bind to (PLY, OBJ, OFF, glTF/GLB), or, with --rebind, a bound

@@ -6,7 +6,10 @@
 //!   unit quaternions, `scale_0` = ln thickness, `scale_1`/`scale_2` = the two
 //!   learned in-plane log scales, opacity logit, SH), followed by the
 //!   binding: `face_index` (int), `bary_0 bary_1 bary_2` (float, the table
-//!   row), `rot_re rot_im` (float, the unnormalised complex rotation);
+//!   row), `complex_re complex_im` (float, the unnormalised complex rotation).
+//!   No name starts with `rot`, `scale_` or `f_`: graphdeco's `load_ply`
+//!   collects every property starting with `rot` and sorts them by the
+//!   number after the last `_`, so `rot_re` would make it throw;
 //! - `bound_vertex` (float x y z, optional uchar red green blue alpha) and
 //!   `bound_face` (int vertex_0 vertex_1 vertex_2): the mesh the Gaussians
 //!   are bound to, as extra elements after `vertex`. graphdeco's `load_ply`
@@ -28,8 +31,8 @@ pub const BINDING_PROPERTIES: [&str; 6] = [
     "bary_0",
     "bary_1",
     "bary_2",
-    "rot_re",
-    "rot_im",
+    "complex_re",
+    "complex_im",
 ];
 /// Element holding the bound mesh's vertices.
 pub const MESH_VERTEX: &str = "bound_vertex";
@@ -41,9 +44,9 @@ pub const FACE_PROPERTIES: [&str; 3] = ["vertex_0", "vertex_1", "vertex_2"];
 const COMMENT: &str = "splatkit bound-gaussians per_face";
 
 /// True when a vertex property list carries a binding (`face_index` and
-/// `rot_re`), i.e. the Gaussians are bound to a mesh.
+/// `complex_re`), i.e. the Gaussians are bound to a mesh.
 pub fn is_bound(g: &Gaussians) -> bool {
-    ["face_index", "rot_re"]
+    ["face_index", "complex_re"]
         .iter()
         .all(|n| g.extras.item.iter().any(|p| p.name == *n))
 }
@@ -75,8 +78,8 @@ pub fn attach(b: &BoundGaussians, mut materialized: Gaussians) -> Gaussians {
             f32_col(bary.iter().map(|w| w[k])),
         ));
     }
-    item.push(prop("rot_re", f32_col(b.complex.iter().map(|c| c[0]))));
-    item.push(prop("rot_im", f32_col(b.complex.iter().map(|c| c[1]))));
+    item.push(prop("complex_re", f32_col(b.complex.iter().map(|c| c[0]))));
+    item.push(prop("complex_im", f32_col(b.complex.iter().map(|c| c[1]))));
     let m = &b.mesh;
     let mut ve = Element::new(MESH_VERTEX, m.vertices.len());
     for (k, name) in ["x", "y", "z"].iter().enumerate() {
@@ -160,7 +163,7 @@ pub fn detach(name: &str, g: &Gaussians) -> Result<BoundGaussians> {
     let bary: Vec<Vec<f64>> = (0..3)
         .map(|k| item(&format!("bary_{k}")))
         .collect::<Result<_>>()?;
-    let (re, im) = (item("rot_re")?, item("rot_im")?);
+    let (re, im) = (item("complex_re")?, item("complex_im")?);
     let ve = el(MESH_VERTEX)?;
     let fe = el(MESH_FACE)?;
     let xyz: Vec<Vec<f64>> = ["x", "y", "z"]
