@@ -65,6 +65,24 @@ impl Aabb {
     }
 }
 
+/// The mean of camera centres and the largest distance of a centre from it
+/// (3DGS's `getNerfppNorm` radius before its 1.1 factor; SuGaR's extent and
+/// its foreground cube use it). (origin, 0) for no centres.
+pub fn centre_and_spread(centers: &[[f64; 3]]) -> ([f64; 3], f64) {
+    let n = centers.len().max(1) as f64;
+    let mut c = [0.0; 3];
+    for p in centers {
+        for k in 0..3 {
+            c[k] += p[k] / n;
+        }
+    }
+    let rmax = centers
+        .iter()
+        .map(|p| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt())
+        .fold(0.0, f64::max);
+    (c, rmax)
+}
+
 /// The split rule.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct SceneSplit {
@@ -80,17 +98,7 @@ impl SceneSplit {
         if centers.is_empty() {
             return Err(Error::invalid("the camera file holds no cameras"));
         }
-        let n = centers.len() as f64;
-        let mut c = [0.0; 3];
-        for p in centers {
-            for k in 0..3 {
-                c[k] += p[k] / n;
-            }
-        }
-        let rmax = centers
-            .iter()
-            .map(|p| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt())
-            .fold(0.0, f64::max);
+        let (c, rmax) = centre_and_spread(centers);
         let r = fg_factor * rmax;
         if r.is_nan() || r <= 0.0 {
             return Err(Error::invalid(

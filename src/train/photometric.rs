@@ -48,13 +48,12 @@ pub fn loss_and_grad(pred: &[[f32; 3]], view: &View) -> (f64, Vec<[f32; 3]>) {
     (L1_WEIGHT * l1 + (1.0 - L1_WEIGHT) * (1.0 - s), grad)
 }
 
-/// (PSNR, SSIM) of `pred` against the view (see the module docs for masks).
-pub fn metrics(pred: &[[f32; 3]], view: &View) -> (f64, f64) {
-    let (w, h) = (view.camera.width as usize, view.camera.height as usize);
-    let c = composite(pred, view);
-    let p = match &view.mask {
+/// PSNR of `pred` against the view, over the mask's pixels (all pixels
+/// without a mask; NaN when the mask is empty).
+pub fn psnr_of(pred: &[[f32; 3]], view: &View) -> f64 {
+    match &view.mask {
         Some(m) => {
-            let (a, b): (Vec<[f32; 3]>, Vec<[f32; 3]>) = c
+            let (a, b): (Vec<[f32; 3]>, Vec<[f32; 3]>) = pred
                 .iter()
                 .zip(&view.image)
                 .zip(m)
@@ -63,7 +62,13 @@ pub fn metrics(pred: &[[f32; 3]], view: &View) -> (f64, f64) {
                 .unzip();
             if a.is_empty() { f64::NAN } else { psnr(&a, &b) }
         }
-        None => psnr(&c, &view.image),
-    };
-    (p, ssim(&c, &view.image, w, h))
+        None => psnr(pred, &view.image),
+    }
+}
+
+/// (PSNR, SSIM) of `pred` against the view (see the module docs for masks).
+pub fn metrics(pred: &[[f32; 3]], view: &View) -> (f64, f64) {
+    let (w, h) = (view.camera.width as usize, view.camera.height as usize);
+    let c = composite(pred, view);
+    (psnr_of(pred, view), ssim(&c, &view.image, w, h))
 }

@@ -25,7 +25,7 @@ use splatkit_render::gaussian_grad;
 use splatkit_render::optim::{Adam, LrSchedule, ParamGroup};
 
 use super::checkpoint::GroupState;
-use super::photometric::{loss_and_grad, metrics};
+use super::photometric::{loss_and_grad, metrics, psnr_of};
 use super::schedule::view_at;
 use crate::geom::binding::grad::{NormalConsistency, backward};
 use crate::geom::binding::to_raster;
@@ -208,7 +208,7 @@ impl Refiner {
         let g3 = to_raster(&self.model, d);
         let (img, state) = rasterize(&g3, &view.camera, &s);
         let (photo, d_rgb) = loss_and_grad(&img.rgb, view);
-        let psnr = metrics(&img.rgb, view).0;
+        let psnr = psnr_of(&img.rgb, view);
         let gg = gaussian_grad::backward(&g3, &view.camera, &s, &state, &d_rgb, None);
         let mut bg = backward(&self.model, &gg, d);
         let w = self.params.normal_consistency;

@@ -234,17 +234,7 @@ pub fn bind(
 /// (ln thickness, s0, s1), opacity logits and SH unchanged; no normals, no
 /// extras.
 pub fn materialize(b: &BoundGaussians) -> Gaussians {
-    use rayon::prelude::*;
-    let n = b.len();
-    let (means, rotations): (Vec<[f32; 3]>, Vec<[f32; 4]>) = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            (
-                mean_of(b, i).map(|x| x as f32),
-                quat_of(b, i).map(|x| x as f32),
-            )
-        })
-        .unzip();
+    let (means, rotations) = means_and_rotations(b);
     let lt = b.log_thickness;
     Gaussians {
         means,
@@ -259,11 +249,27 @@ pub fn materialize(b: &BoundGaussians) -> Gaussians {
     }
 }
 
+/// The derived values of every Gaussian: means and w-first unit quaternions
+/// (f32), in parallel.
+fn means_and_rotations(b: &BoundGaussians) -> (Vec<[f32; 3]>, Vec<[f32; 4]>) {
+    use rayon::prelude::*;
+    (0..b.len())
+        .into_par_iter()
+        .map(|i| {
+            (
+                mean_of(b, i).map(|x| x as f32),
+                quat_of(b, i).map(|x| x as f32),
+            )
+        })
+        .unzip()
+}
+
 /// The activated values the rasteriser takes, with SH truncated to
 /// `active_degree` (≤ the model's degree): SuGaR's SH warm-up renders with
 /// one more degree every 1000 iterations.
 pub fn to_raster(b: &BoundGaussians, active_degree: usize) -> Gaussians3 {
-    let g = materialize(b);
+    let (means, rotations) = means_and_rotations(b);
+    let thickness = b.log_thickness.exp();
     let d = active_degree.min(b.sh_degree);
     let keep = (d + 1).pow(2) - 1;
     let k = b.rest_per_channel();
@@ -276,9 +282,13 @@ pub fn to_raster(b: &BoundGaussians, active_degree: usize) -> Gaussians3 {
         }
     }
     Gaussians3 {
-        means: g.means,
-        scales: g.log_scales.iter().map(|s| s.map(f32::exp)).collect(),
-        rotations: g.rotations,
+        means,
+        scales: b
+            .log_scales
+            .iter()
+            .map(|s| [thickness, s[0].exp(), s[1].exp()])
+            .collect(),
+        rotations,
         opacities: b
             .opacity_logits
             .iter()
@@ -292,15 +302,7 @@ pub fn to_raster(b: &BoundGaussians, active_degree: usize) -> Gaussians3 {
 /// The cameras' spatial extent as 3DGS and SuGaR define it:
 /// 1.1 × the largest distance of a camera centre from their mean.
 pub fn camera_extent(centers: &[[f64; 3]]) -> Option<f64> {
-    if centers.is_empty() {
-        return None;
-    }
-    let n = centers.len() as f64;
-    let c: [f64; 3] = std::array::from_fn(|k| centers.iter().map(|p| p[k]).sum::<f64>() / n);
-    let r = centers
-        .iter()
-        .map(|p| dot3(sub3(*p, c), sub3(*p, c)).sqrt())
-        .fold(0.0, f64::max);
+    let (_, r) = crate::geom::scene_split::centre_and_spread(centers);
     (r > 0.0 && r.is_finite()).then_some(1.1 * r)
 }
 

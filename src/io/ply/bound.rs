@@ -10,7 +10,8 @@
 //!   No name starts with `rot`, `scale_` or `f_`: graphdeco's `load_ply`
 //!   collects every property starting with `rot` and sorts them by the
 //!   number after the last `_`, so `rot_re` would make it throw;
-//! - `bound_vertex` (float x y z, optional uchar red green blue alpha) and
+//! - `bound_vertex` (float x y z, optional uchar red green blue, and alpha
+//!   when some vertex is not opaque) and
 //!   `bound_face` (int vertex_0 vertex_1 vertex_2): the mesh the Gaussians
 //!   are bound to, as extra elements after `vertex`. graphdeco's `load_ply`
 //!   reads only `elements[0]`; the PlayCanvas engine's reader (SuperSplat)
@@ -21,6 +22,7 @@
 //! Reading checks every part against the others (counts, the table, the face
 //! order, the thickness) and names the first inconsistency.
 
+use super::common::{f32_col, push_rgba, push_xyz, take_rgba, take_xyz};
 use crate::model::bound::{BoundGaussians, barycentrics};
 use crate::model::{Column, Element, Gaussians, Mesh, Property, ScalarData};
 use crate::{Error, Result};
@@ -51,10 +53,6 @@ pub fn is_bound(g: &Gaussians) -> bool {
         .all(|n| g.extras.item.iter().any(|p| p.name == *n))
 }
 
-fn f32_col(v: impl IntoIterator<Item = f32>) -> Column {
-    Column::Scalar(ScalarData::F32(v.into_iter().collect()))
-}
-
 /// `materialized` (from `geom::binding::materialize(b)`) with the binding
 /// and the mesh attached, ready for the 3DGS PLY writer.
 pub fn attach(b: &BoundGaussians, mut materialized: Gaussians) -> Gaussians {
@@ -82,16 +80,9 @@ pub fn attach(b: &BoundGaussians, mut materialized: Gaussians) -> Gaussians {
     item.push(prop("complex_im", f32_col(b.complex.iter().map(|c| c[1]))));
     let m = &b.mesh;
     let mut ve = Element::new(MESH_VERTEX, m.vertices.len());
-    for (k, name) in ["x", "y", "z"].iter().enumerate() {
-        ve.push(*name, f32_col(m.vertices.iter().map(|v| v[k])));
-    }
+    push_xyz(&mut ve, ["x", "y", "z"], &m.vertices);
     if let Some(c) = &m.vertex_colors {
-        for (k, name) in ["red", "green", "blue", "alpha"].iter().enumerate() {
-            ve.push(
-                *name,
-                Column::Scalar(ScalarData::U8(c.iter().map(|c| c[k]).collect())),
-            );
-        }
+        push_rgba(&mut ve, c);
     }
     let mut fe = Element::new(MESH_FACE, m.faces.len());
     for (k, name) in FACE_PROPERTIES.iter().enumerate() {
@@ -166,26 +157,10 @@ pub fn detach(name: &str, g: &Gaussians) -> Result<BoundGaussians> {
     let (re, im) = (item("complex_re")?, item("complex_im")?);
     let ve = el(MESH_VERTEX)?;
     let fe = el(MESH_FACE)?;
-    let xyz: Vec<Vec<f64>> = ["x", "y", "z"]
-        .iter()
-        .map(|p| scalar_f64(name, ve, p))
-        .collect::<Result<_>>()?;
-    let vertices: Vec<[f32; 3]> = (0..ve.count)
-        .map(|i| [xyz[0][i] as f32, xyz[1][i] as f32, xyz[2][i] as f32])
-        .collect();
-    let vertex_colors = if ve.property("red").is_some() {
-        let ch: Vec<Vec<f64>> = ["red", "green", "blue", "alpha"]
-            .iter()
-            .map(|p| scalar_f64(name, ve, p))
-            .collect::<Result<_>>()?;
-        Some(
-            (0..ve.count)
-                .map(|i| std::array::from_fn(|k| ch[k][i].clamp(0.0, 255.0) as u8))
-                .collect(),
-        )
-    } else {
-        None
-    };
+    let mut ve_cols = ve.clone();
+    let vertices = take_xyz(name, &mut ve_cols, ["x", "y", "z"])?
+        .ok_or_else(|| bad(name, format!("element {MESH_VERTEX} has no x, y, z")))?;
+    let vertex_colors = take_rgba(name, &mut ve_cols)?;
     let corners: Vec<Vec<f64>> = FACE_PROPERTIES
         .iter()
         .map(|p| scalar_f64(name, fe, p))
