@@ -25,5 +25,6 @@ mod testutil;
 pub mod tiles;
 pub mod triangle;
 pub mod triangle_grad;
+pub mod triangle_stats;
 
 pub use camera::{Camera, CameraModel};
