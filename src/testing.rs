@@ -9,7 +9,9 @@ use std::path::PathBuf;
 
 use glam::{DMat3, DVec3};
 
-use crate::model::{Camera, Mesh};
+use splatkit_render::mesh::{NO_FACE, render as zbuffer};
+
+use crate::model::{Camera, Mesh, View};
 
 /// The path of `rel` under `../shared/data` next to the repository, or
 /// `None` (after printing a skip notice) when it does not exist.
@@ -91,6 +93,74 @@ pub fn cameras_around(n: usize, dist: f64, size: u32, f: f64) -> Vec<Camera> {
             let (r, t) = Camera::pose_from_c2w(DMat3::from_cols(x, yv, z), pos);
             let half = size as f64 / 2.0;
             Camera::pinhole(format!("v{k:02}"), size, size, f, f, half, half, r, t)
+        })
+        .collect()
+}
+
+/// A smooth colour pattern on the unit sphere (the "texture" of the ground
+/// truth), in [0.15, 0.85].
+pub fn sphere_texture(p: DVec3) -> [f32; 3] {
+    let q = p.normalize();
+    [
+        0.5 + 0.35 * (2.0 * q.x + 1.0 * q.z).sin(),
+        0.5 + 0.35 * (1.5 * q.y - 0.5).cos() * 0.9,
+        0.5 + 0.3 * (2.5 * q.z * q.x + q.y).sin(),
+    ]
+    .map(|v| v as f32)
+}
+
+/// The ground truth: a fine sphere mesh rendered with the mesh rasteriser
+/// at 4×4 samples per pixel (anti-aliased, as a photo is), each sample
+/// coloured by the texture at its hit point (unlit), black background.
+pub fn textured_photos(truth: &Mesh, cams: &[Camera]) -> Vec<View> {
+    const SS: u32 = 4;
+    cams.iter()
+        .map(|c| {
+            let mut big = c.clone();
+            big.width *= SS;
+            big.height *= SS;
+            big.fx *= SS as f64;
+            big.fy *= SS as f64;
+            big.cx *= SS as f64;
+            big.cy *= SS as f64;
+            let z = zbuffer(&truth.vertices, &truth.faces, &big, 0.01);
+            let fine: Vec<[f32; 3]> = (0..z.face.len())
+                .map(|i| {
+                    if z.face[i] == NO_FACE {
+                        return [0.0; 3];
+                    }
+                    let f = truth.faces[z.face[i] as usize];
+                    let [u, v] = z.bary[i].map(f64::from);
+                    let w = [1.0 - u - v, u, v];
+                    let p = (0..3).fold(DVec3::ZERO, |acc, k| {
+                        acc + w[k] * DVec3::from_array(truth.vertices[f[k] as usize].map(f64::from))
+                    });
+                    sphere_texture(p)
+                })
+                .collect();
+            let (w, h, bw) = (c.width as usize, c.height as usize, big.width as usize);
+            let s = SS as usize;
+            let image = (0..w * h)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    let mut acc = [0.0f32; 3];
+                    for dy in 0..s {
+                        for dx in 0..s {
+                            let p = fine[(y * s + dy) * bw + x * s + dx];
+                            for k in 0..3 {
+                                acc[k] += p[k] / (s * s) as f32;
+                            }
+                        }
+                    }
+                    acc
+                })
+                .collect();
+            View {
+                camera: c.clone(),
+                image,
+                mask: None,
+                source: c.name.clone(),
+            }
         })
         .collect()
 }

@@ -79,8 +79,7 @@ pub fn triangle_stats(
         .par_iter()
         .map(|p| {
             let v = &t.vertices[p.id as usize];
-            let c: [f64; 3] =
-                std::array::from_fn(|k| (v[0][k] + v[1][k] + v[2][k]) as f64 / 3.0);
+            let c: [f64; 3] = std::array::from_fn(|k| (v[0][k] + v[1][k] + v[2][k]) as f64 / 3.0);
             let r = cam
                 .project(glam::DVec3::from_array(c))
                 .map_or(0.0, |(c2, _)| {
@@ -130,7 +129,11 @@ mod tests {
         let s = RasterSettings::default();
         let (_, st) = rasterize(&t, &cam, &s);
         let stats = triangle_stats(&t, &cam, &s, &st);
-        assert!((stats.importance[0] - 0.99).abs() < 1e-6, "{:?}", stats.importance);
+        assert!(
+            (stats.importance[0] - 0.99).abs() < 1e-6,
+            "{:?}",
+            stats.importance
+        );
         assert!((stats.importance[1] - 0.5 * 0.01).abs() < 1e-6);
         assert_eq!(stats.importance[2], 0.0);
         // the projected triangle: (±16, ±16) px about the centre, apex at +16
@@ -138,11 +141,19 @@ mod tests {
         // c = 32; area 512; inradius = 2·area/perimeter
         let a = (16.0f64 * 16.0 + 32.0 * 32.0).sqrt();
         let r = 2.0 * 512.0 / (2.0 * a + 32.0);
-        assert!((stats.inradius[0] as f64 - r).abs() < 1e-3, "{}", stats.inradius[0]);
+        assert!(
+            (stats.inradius[0] as f64 - r).abs() < 1e-3,
+            "{}",
+            stats.inradius[0]
+        );
         // 3-D centroid projects to y = −16/3 px from the centre: R = distance
         // to the apex, 16 + 16/3 (the lower corners are 19.2 px away)
         let big_r = 16.0 + 16.0 / 3.0f64;
-        assert!((stats.radius[0] as f64 - big_r).abs() < 1e-3, "{}", stats.radius[0]);
+        assert!(
+            (stats.radius[0] as f64 - big_r).abs() < 1e-3,
+            "{}",
+            stats.radius[0]
+        );
         assert_eq!(stats.radius[2], 0.0);
     }
 }

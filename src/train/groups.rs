@@ -236,6 +236,9 @@ mod tests {
         assert_eq!(s, vec![Source::Old(0), Source::Old(2)]);
         let mut s2 = s.clone();
         s2.push(Source::New);
-        assert_eq!(gather_rows(&buf, 1, &s2, |k| vec![10.0 + k as f32]), vec![1.0, 3.0, 10.0]);
+        assert_eq!(
+            gather_rows(&buf, 1, &s2, |k| vec![10.0 + k as f32]),
+            vec![1.0, 3.0, 10.0]
+        );
     }
 }

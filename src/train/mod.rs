@@ -9,6 +9,8 @@
 //!   for bit.
 
 pub mod checkpoint;
+pub mod groups;
 pub mod photometric;
 pub mod refine;
 pub mod schedule;
+pub mod triangles;

@@ -28,11 +28,21 @@ fn composite(pred: &[[f32; 3]], view: &View) -> Vec<[f32; 3]> {
 
 /// The loss of `pred` against the view and its gradient per pixel.
 pub fn loss_and_grad(pred: &[[f32; 3]], view: &View) -> (f64, Vec<[f32; 3]>) {
+    loss_and_grad_weighted(pred, view, L1_WEIGHT)
+}
+
+/// [`loss_and_grad`] with L1 weight `l1_weight` and D-SSIM weight
+/// 1 − `l1_weight` (Triangle Splatting's indoor preset: 0.6 / 0.4).
+pub fn loss_and_grad_weighted(
+    pred: &[[f32; 3]],
+    view: &View,
+    l1_weight: f64,
+) -> (f64, Vec<[f32; 3]>) {
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
     let c = composite(pred, view);
     let (l1, g1) = l1_grad(&c, &view.image);
     let (s, gs) = ssim_grad(&c, &view.image, w, h);
-    let a = L1_WEIGHT as f32;
+    let a = l1_weight as f32;
     let mut grad: Vec<[f32; 3]> = g1
         .iter()
         .zip(&gs)
@@ -45,7 +55,7 @@ pub fn loss_and_grad(pred: &[[f32; 3]], view: &View) -> (f64, Vec<[f32; 3]>) {
             }
         }
     }
-    (L1_WEIGHT * l1 + (1.0 - L1_WEIGHT) * (1.0 - s), grad)
+    (l1_weight * l1 + (1.0 - l1_weight) * (1.0 - s), grad)
 }
 
 /// PSNR of `pred` against the view, over the mask's pixels (all pixels
@@ -71,4 +81,39 @@ pub fn metrics(pred: &[[f32; 3]], view: &View) -> (f64, f64) {
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
     let c = composite(pred, view);
     (psnr_of(pred, view), ssim(&c, &view.image, w, h))
+}
+
+/// A held-out evaluation.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct Eval {
+    pub iteration: u64,
+    pub psnr: f64,
+    pub ssim: f64,
+    /// Per test view (its camera name, PSNR, SSIM).
+    pub views: Vec<(String, f64, f64)>,
+}
+
+/// Renders each view of `test` with `render` and averages PSNR / SSIM
+/// ([`metrics`]) over them.
+pub fn evaluate(
+    views: &[View],
+    test: &[usize],
+    iteration: u64,
+    render: impl Fn(&View) -> Vec<[f32; 3]>,
+) -> Eval {
+    let per: Vec<(String, f64, f64)> = test
+        .iter()
+        .map(|&i| {
+            let img = render(&views[i]);
+            let (p, q) = metrics(&img, &views[i]);
+            (views[i].camera.name.clone(), p, q)
+        })
+        .collect();
+    let n = per.len().max(1) as f64;
+    Eval {
+        iteration,
+        psnr: per.iter().map(|v| v.1).sum::<f64>() / n,
+        ssim: per.iter().map(|v| v.2).sum::<f64>() / n,
+        views: per,
+    }
 }

@@ -25,7 +25,8 @@ use splatkit_render::gaussian_grad;
 use splatkit_render::optim::{Adam, LrSchedule, ParamGroup};
 
 use super::checkpoint::GroupState;
-use super::photometric::{loss_and_grad, metrics, psnr_of};
+pub use super::photometric::Eval;
+use super::photometric::{evaluate, loss_and_grad, psnr_of};
 use super::schedule::view_at;
 use crate::geom::binding::grad::{NormalConsistency, backward};
 use crate::geom::binding::to_raster;
@@ -101,16 +102,6 @@ pub struct StepStats {
     pub normal_consistency: f64,
     /// PSNR of this training view's render before the step.
     pub psnr: f64,
-}
-
-/// A held-out evaluation.
-#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq)]
-pub struct Eval {
-    pub iteration: u64,
-    pub psnr: f64,
-    pub ssim: f64,
-    /// Per test view (its camera name, PSNR, SSIM).
-    pub views: Vec<(String, f64, f64)>,
 }
 
 /// The refinement state: the model, one Adam per parameter group, the
@@ -243,21 +234,9 @@ impl Refiner {
     pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
         let g3 = to_raster(&self.model, self.active_degree());
         let s = self.settings();
-        let per: Vec<(String, f64, f64)> = test
-            .iter()
-            .map(|&i| {
-                let img = render(&g3, &views[i].camera, &s);
-                let (p, q) = metrics(&img.rgb, &views[i]);
-                (views[i].camera.name.clone(), p, q)
-            })
-            .collect();
-        let n = per.len().max(1) as f64;
-        Eval {
-            iteration: self.iteration,
-            psnr: per.iter().map(|v| v.1).sum::<f64>() / n,
-            ssim: per.iter().map(|v| v.2).sum::<f64>() / n,
-            views: per,
-        }
+        evaluate(views, test, self.iteration, |v| {
+            render(&g3, &v.camera, &s).rgb
+        })
     }
 
     /// The optimiser state for a checkpoint: (step, groups).

@@ -1,82 +1,15 @@
 use glam::DVec3;
 use rand::RngExt;
-use splatkit_render::mesh::{NO_FACE, render as zbuffer};
 
 use super::*;
 use crate::geom::binding::{BindOptions, bind, camera_extent};
 use crate::model::rng::seeded;
 use crate::model::{Camera, Mesh};
-use crate::testing::{cameras_around, uv_sphere};
+use crate::testing::{
+    cameras_around, sphere_texture as texture, textured_photos as photos, uv_sphere,
+};
 use crate::train::checkpoint::{decode, encode};
 use crate::train::schedule::split;
-
-/// A smooth colour pattern on the unit sphere (the "texture" of the ground
-/// truth), in [0.15, 0.85].
-fn texture(p: DVec3) -> [f32; 3] {
-    let q = p.normalize();
-    [
-        0.5 + 0.35 * (2.0 * q.x + 1.0 * q.z).sin(),
-        0.5 + 0.35 * (1.5 * q.y - 0.5).cos() * 0.9,
-        0.5 + 0.3 * (2.5 * q.z * q.x + q.y).sin(),
-    ]
-    .map(|v| v as f32)
-}
-
-/// The ground truth: a fine sphere mesh rendered with the mesh rasteriser
-/// at 4×4 samples per pixel (anti-aliased, as a photo is), each sample
-/// coloured by the texture at its hit point (unlit), black background.
-fn photos(truth: &Mesh, cams: &[Camera]) -> Vec<View> {
-    const SS: u32 = 4;
-    cams.iter()
-        .map(|c| {
-            let mut big = c.clone();
-            big.width *= SS;
-            big.height *= SS;
-            big.fx *= SS as f64;
-            big.fy *= SS as f64;
-            big.cx *= SS as f64;
-            big.cy *= SS as f64;
-            let z = zbuffer(&truth.vertices, &truth.faces, &big, 0.01);
-            let fine: Vec<[f32; 3]> = (0..z.face.len())
-                .map(|i| {
-                    if z.face[i] == NO_FACE {
-                        return [0.0; 3];
-                    }
-                    let f = truth.faces[z.face[i] as usize];
-                    let [u, v] = z.bary[i].map(f64::from);
-                    let w = [1.0 - u - v, u, v];
-                    let p = (0..3).fold(DVec3::ZERO, |acc, k| {
-                        acc + w[k] * DVec3::from_array(truth.vertices[f[k] as usize].map(f64::from))
-                    });
-                    texture(p)
-                })
-                .collect();
-            let (w, h, bw) = (c.width as usize, c.height as usize, big.width as usize);
-            let s = SS as usize;
-            let image = (0..w * h)
-                .map(|i| {
-                    let (x, y) = (i % w, i / w);
-                    let mut acc = [0.0f32; 3];
-                    for dy in 0..s {
-                        for dx in 0..s {
-                            let p = fine[(y * s + dy) * bw + x * s + dx];
-                            for k in 0..3 {
-                                acc[k] += p[k] / (s * s) as f32;
-                            }
-                        }
-                    }
-                    acc
-                })
-                .collect();
-            View {
-                camera: c.clone(),
-                image,
-                mask: None,
-                source: c.name.clone(),
-            }
-        })
-        .collect()
-}
 
 /// Mean distance from points sampled on the mesh (face centroids and
 /// vertices) to the unit sphere: the one-sided Chamfer distance to the true
