@@ -72,6 +72,7 @@ fn photos(truth: &Mesh, cams: &[Camera]) -> Vec<View> {
                 camera: c.clone(),
                 image,
                 mask: None,
+                alpha: None,
                 source: c.name.clone(),
             }
         })
