@@ -465,3 +465,150 @@ fn real_dtu_loads_49_views_with_masks() {
     );
     assert!(e.contains("odd") && e.contains("image_half"), "{e}");
 }
+
+/// A NeuS-layout folder: `cameras_sphere.npz` with two cameras (fx = fy =
+/// 10, principal point (4, 3) in Camera pixels, looking down +z from z = -5),
+/// 8x6 masks in `mask/`, 4x3 photos in `image_half/`.
+fn dtu_folder(root: &Path) {
+    use std::io::Write;
+    let mut w = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let o = zip::write::SimpleFileOptions::default();
+    let id = [
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    for (i, tx) in [(0, 0.0), (1, 1.0)] {
+        // K [I | t], t = (tx, 0, 5); NeuS pixel centres are integers: cx = 3.5
+        let p = [
+            10.0,
+            0.0,
+            3.5,
+            10.0 * tx + 3.5 * 5.0,
+            0.0,
+            10.0,
+            2.5,
+            2.5 * 5.0,
+            0.0,
+            0.0,
+            1.0,
+            5.0,
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+        ];
+        for (n, m) in [("world_mat", &p), ("scale_mat", &id)] {
+            w.start_file(format!("{n}_{i}.npy"), o).unwrap();
+            w.write_all(&crate::io::cameras::npz::encode_npy_f64(&[4, 4], m))
+                .unwrap();
+        }
+    }
+    let bytes = w.finish().unwrap().into_inner();
+    std::fs::write(root.join("cameras_sphere.npz"), bytes).unwrap();
+    for i in 0..2 {
+        png(&root.join(format!("mask/{i:03}.png")), 8, 6, 3, &[255; 3]);
+        png(
+            &root.join(format!("image_half/{i:06}.png")),
+            4,
+            3,
+            3,
+            &[60, 120, 180],
+        );
+    }
+}
+
+#[test]
+fn dtu_layout_half_size_photos_and_folder_choice() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    dtu_folder(root);
+    let with = |downscale: u32, resolution: Option<u32>| DatasetOptions {
+        downscale,
+        resolution,
+        ..Default::default()
+    };
+    let ds = load_dataset(root, &with(1, None)).unwrap();
+    assert_eq!(ds.format, "dtu npz");
+    assert_eq!(ds.cameras_file, root.join("cameras_sphere.npz"));
+    assert!(ds.points.is_none());
+    assert_eq!(ds.views.len(), 2);
+    // downscale 1 = the half-size photos as stored: cameras halved
+    let v = &ds.views[1];
+    assert_eq!(v.camera.name, "001");
+    assert_eq!(
+        (v.camera.width, v.camera.height, v.camera.fx, v.camera.cx),
+        (4, 3, 5.0, 2.0)
+    );
+    assert!(v.source.ends_with("000001.png"), "{}", v.source);
+    assert_eq!(v.mask.as_ref().unwrap().len(), 12);
+    assert_eq!(to_u8(v.image[0][2]), 180);
+    // even downscales only; a target width picks the smallest even k
+    for (opts, w) in [
+        (with(2, None), 4),
+        (with(4, None), 2),
+        (with(1, Some(4)), 4),
+        (with(1, Some(3)), 2),
+        (with(1, Some(100)), 4),
+    ] {
+        let ds = load_dataset(root, &opts).unwrap();
+        assert_eq!(ds.views[0].camera.width, w, "{opts:?}");
+        assert_eq!(
+            ds.views[0].image.len(),
+            ds.views[0].mask.as_ref().unwrap().len()
+        );
+    }
+    let e = err(root, &with(3, None));
+    assert!(e.contains("odd") && e.contains("image_half"), "{e}");
+    // an incomplete full-size folder is passed over; a complete one wins
+    png(&root.join("image/000000.png"), 8, 6, 3, &[1, 1, 1]);
+    let ds = load_dataset(root, &with(1, None)).unwrap();
+    assert_eq!(ds.views[0].camera.width, 4);
+    png(&root.join("image/000001.png"), 8, 6, 3, &[1, 1, 1]);
+    let ds = load_dataset(root, &with(1, None)).unwrap();
+    assert_eq!(ds.views[0].camera.width, 8);
+    assert!(
+        ds.views[0].source.contains("image/"),
+        "{}",
+        ds.views[0].source
+    );
+    // no complete folder: the preferred one's missing camera is named
+    std::fs::remove_dir_all(root.join("image_half")).unwrap();
+    std::fs::remove_file(root.join("image/000001.png")).unwrap();
+    let e = err(root, &with(1, None));
+    assert!(
+        e.contains("camera \"001\"") && e.contains("image_half") && e.contains("every camera"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(root.join("image")).unwrap();
+    let e = err(root, &with(1, None));
+    assert!(e.contains("missing images folder"), "{e}");
+    // masks off
+    dtu_folder(root);
+    let ds = load_dataset(
+        root,
+        &DatasetOptions {
+            masks: MaskMode::Off,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(ds.views[0].mask.is_none());
+}
+
+#[test]
+fn load_views_without_background_drops_alpha() {
+    let d = tempfile::tempdir().unwrap();
+    let (r, t) = Camera::pose_from_c2w(DMat3::IDENTITY, DVec3::new(0.0, 0.0, -4.0));
+    let cams = vec![Camera::pinhole("a", 2, 2, 5.0, 5.0, 1.0, 1.0, r, t)];
+    png(&d.path().join("a.png"), 2, 2, 4, &[255, 0, 0, 0]);
+    let v = crate::io::views::load_views(
+        &cams,
+        d.path(),
+        &ViewOptions {
+            downscale: 1,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(v[0].alpha.is_none());
+    assert_eq!(v[0].image[0], [1.0, 0.0, 0.0]);
+}
