@@ -83,6 +83,7 @@ fn main() {
             camera: c.clone(),
             image: render(&gt, c, &RasterSettings::default()).rgb,
             mask: None,
+            alpha: None,
             source: c.name.clone(),
         })
         .collect();

@@ -160,6 +160,7 @@ pub fn textured_photos(truth: &Mesh, cams: &[Camera]) -> Vec<View> {
                 image,
                 mask: None,
                 source: c.name.clone(),
+                alpha: None,
             }
         })
         .collect()

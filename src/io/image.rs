@@ -120,6 +120,17 @@ pub fn decode_png_bytes(
 /// Reads a PNG (grey, grey+alpha, RGB or RGBA; 8 or 16 bits) as RGB floats;
 /// alpha is dropped, grey is replicated.
 pub fn read_png_rgb(path: &Path) -> Result<RgbImage> {
+    decode_png_rgb(path, false).map(|(img, _)| img)
+}
+
+/// Like [`read_png_rgb`], also returning the alpha channel (in [0, 1],
+/// row-major) when the PNG has one (grey+alpha, RGBA, or a `tRNS` chunk);
+/// the colours are returned as stored (straight, not premultiplied).
+pub fn read_png_rgb_alpha(path: &Path) -> Result<(RgbImage, Option<Vec<f32>>)> {
+    decode_png_rgb(path, true)
+}
+
+fn decode_png_rgb(path: &Path, keep_alpha: bool) -> Result<(RgbImage, Option<Vec<f32>>)> {
     let (info, buf) = decode_png(path, png::Transformations::EXPAND)?;
     let (w, h) = (info.width as usize, info.height as usize);
     let ch = info.color_type.samples();
@@ -140,11 +151,17 @@ pub fn read_png_rgb(path: &Path) -> Result<RgbImage> {
             }
         })
         .collect();
-    Ok(RgbImage {
-        width: w,
-        height: h,
-        pixels,
-    })
+    // grey+alpha has 2 samples, RGBA 4: alpha is the last one
+    let alpha = (keep_alpha && (ch == 2 || ch == 4))
+        .then(|| (0..w * h).map(|p| sample(p * ch + ch - 1)).collect());
+    Ok((
+        RgbImage {
+            width: w,
+            height: h,
+            pixels,
+        },
+        alpha,
+    ))
 }
 
 /// Linear [0, 1] float to an 8-bit value (clamped, rounded).

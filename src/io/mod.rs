@@ -3,6 +3,7 @@
 
 pub mod any;
 pub mod cameras;
+pub mod dataset;
 pub mod depth;
 pub mod describe;
 pub mod detect;

@@ -12,7 +12,8 @@
 //! the camera's size divided by any divisor j of `downscale` (j = downscale:
 //! used as is; otherwise box-filtered by downscale / j, so DTU's half-size
 //! images serve `--downscale 2` and `4`); anything else is an error naming
-//! the file and both sizes. PNG (8/16-bit, grey/RGB/RGBA, alpha dropped) and baseline
+//! the file and both sizes. PNG (8/16-bit, grey/RGB/RGBA; alpha dropped, or
+//! composited onto [`ViewOptions::background`] and kept) and baseline
 //! JPEG are read; values are scaled to [0, 1] without gamma change. A mask
 //! pixel is object where its value (blue byte, as OpenCV's channel 0) is
 //! non-zero, as the DTU tools read masks.
@@ -21,7 +22,8 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use crate::io::image::{RgbImage, read_mask, read_png_rgb};
+use crate::io::cameras::image_dimensions;
+use crate::io::image::{RgbImage, read_mask, read_png_rgb, read_png_rgb_alpha};
 use crate::model::{Camera, Mask, View};
 use crate::{Error, Result};
 
@@ -89,14 +91,27 @@ fn find_file(dir: &Path, files: &[PathBuf], cam: &Camera, what: &str) -> Result<
     )))
 }
 
-/// Decodes a PNG or JPEG as RGB in [0, 1]; errors name the file.
-pub fn read_rgb(path: &Path) -> Result<RgbImage> {
+fn is_jpeg(path: &Path) -> bool {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    if ext != "jpg" && ext != "jpeg" {
+    ext == "jpg" || ext == "jpeg"
+}
+
+/// Like [`read_rgb`], also returning a PNG's alpha channel when it has one
+/// (see [`read_png_rgb_alpha`]); a JPEG has none.
+pub fn read_rgb_alpha(path: &Path) -> Result<(RgbImage, Option<Vec<f32>>)> {
+    if is_jpeg(path) {
+        return Ok((read_rgb(path)?, None));
+    }
+    read_png_rgb_alpha(path)
+}
+
+/// Decodes a PNG or JPEG as RGB in [0, 1]; errors name the file.
+pub fn read_rgb(path: &Path) -> Result<RgbImage> {
+    if !is_jpeg(path) {
         return read_png_rgb(path);
     }
     let name = path.display().to_string();
@@ -181,36 +196,81 @@ fn box_down<T: Copy>(
     out
 }
 
-/// Options of [`load_views`].
+/// Options of [`load_views`] and [`load_views_from_files`].
 #[derive(Clone, Debug, Default)]
 pub struct ViewOptions {
     /// Integer downscale of the cameras (1 = as stored).
     pub downscale: u32,
     /// Folder of masks (object = non-zero), paired like the images.
     pub masks: Option<PathBuf>,
+    /// `None`: a PNG's alpha channel is dropped (the colours are used as
+    /// stored) and [`View::alpha`] is `None`. `Some(bg)`: a photo with an
+    /// alpha channel is composited onto `bg` (linear RGB in [0, 1]) as
+    /// `rgb·a + bg·(1 − a)`, as 3DGS's NeRF-synthetic reader does, and its
+    /// alpha is kept in [`View::alpha`] (box-filtered like the colours when
+    /// downscaled); photos without alpha are unchanged (`alpha` `None`).
+    pub background: Option<[f32; 3]>,
+}
+
+/// The image in `dir` of every camera, in camera order, by the pairing rules
+/// of the module docs (no file is decoded). Errors: `dir` unreadable or
+/// without PNG/JPEG files, or a camera without a file (naming the camera,
+/// the folder and the names tried).
+pub fn pair_images(cameras: &[Camera], dir: &Path) -> Result<Vec<PathBuf>> {
+    let files = image_files(dir)?;
+    if files.is_empty() {
+        return Err(Error::invalid(format!(
+            "{} holds no PNG or JPEG images",
+            dir.display()
+        )));
+    }
+    cameras
+        .iter()
+        .map(|cam| find_file(dir, &files, cam, "image"))
+        .collect()
 }
 
 /// Loads the photo (and mask) of every camera from `images`, in parallel;
 /// the views come back in camera order.
 pub fn load_views(cameras: &[Camera], images: &Path, opts: &ViewOptions) -> Result<Vec<View>> {
-    let k = opts.downscale.max(1);
-    let files = image_files(images)?;
-    if files.is_empty() {
+    // pinhole first: a distorted camera is the error, not its missing file
+    for cam in cameras {
+        require_pinhole(cam)?;
+    }
+    let files = pair_images(cameras, images)?;
+    load_views_from_files(cameras, &files, opts)
+}
+
+fn require_pinhole(cam: &Camera) -> Result<()> {
+    cam.require_pinhole()
+        .map_err(|m| Error::invalid(format!("camera {:?}: {m}", cam.name)))
+}
+
+/// [`load_views`] with the image of each camera given (`files[i]` for
+/// `cameras[i]`, e.g. the `file_path`s of a `transforms.json`); masks are
+/// still paired in [`ViewOptions::masks`]. Every file's size is read from
+/// its header and checked against its camera before any pixel is decoded.
+pub fn load_views_from_files(
+    cameras: &[Camera],
+    files: &[PathBuf],
+    opts: &ViewOptions,
+) -> Result<Vec<View>> {
+    if files.len() != cameras.len() {
         return Err(Error::invalid(format!(
-            "{} holds no PNG or JPEG images",
-            images.display()
+            "{} image files for {} cameras",
+            files.len(),
+            cameras.len()
         )));
     }
+    let k = opts.downscale.max(1);
     let mask_files = match &opts.masks {
         Some(m) => image_files(m)?,
         None => Vec::new(),
     };
     // pair first (cheap, sequential, first error wins in camera order)
     let mut pairs = Vec::with_capacity(cameras.len());
-    for cam in cameras {
-        cam.require_pinhole()
-            .map_err(|m| Error::invalid(format!("camera {:?}: {m}", cam.name)))?;
-        let img = find_file(images, &files, cam, "image")?;
+    for (cam, img) in cameras.iter().zip(files) {
+        require_pinhole(cam)?;
         let mask = match &opts.masks {
             Some(m) => Some(find_file(m, &mask_files, cam, "mask")?),
             None => None,
@@ -243,25 +303,65 @@ pub fn load_views(cameras: &[Camera], images: &Path, opts: &ViewOptions) -> Resu
                     }
                 )))
             };
-            let rgb = read_rgb(img)?;
-            let f = fit(rgb.width, rgb.height, img)?;
+            // sizes from the headers, before anything is decoded
+            let (hw, hh) = image_dimensions(img)?;
+            let f = fit(hw as usize, hh as usize, img)?;
+            let mask_fit = match mask {
+                Some(mp) => {
+                    let (mw, mh) = image_dimensions(mp)?;
+                    Some((mw as usize, mh as usize, fit(mw as usize, mh as usize, mp)?))
+                }
+                None => None,
+            };
+            let (rgb, alpha) = if opts.background.is_some() {
+                read_rgb_alpha(img)?
+            } else {
+                (read_rgb(img)?, None)
+            };
+            if (rgb.width, rgb.height) != (hw as usize, hh as usize) {
+                return Err(Error::format(
+                    img.display(),
+                    format!(
+                        "the header says {hw}x{hh} but {}x{} pixels were decoded",
+                        rgb.width, rgb.height
+                    ),
+                ));
+            }
+            let mut pixels = rgb.pixels;
+            if let (Some(bg), Some(a)) = (opts.background, &alpha) {
+                for (p, &a) in pixels.iter_mut().zip(a) {
+                    *p = std::array::from_fn(|c| p[c] * a + bg[c] * (1.0 - a));
+                }
+            }
             let image = if f > 1 {
-                box_down(&rgb.pixels, rgb.width, f, tw, th, |b| {
+                box_down(&pixels, rgb.width, f, tw, th, |b| {
                     let n = b.len() as f32;
                     std::array::from_fn(|c| b.iter().map(|p| p[c]).sum::<f32>() / n)
                 })
             } else {
-                rgb.pixels
+                pixels
             };
-            let mask = match mask {
-                Some(mp) => {
+            let alpha = alpha.map(|a| {
+                if f > 1 {
+                    box_down(&a, rgb.width, f, tw, th, |b| b.iter().sum::<f32>() / b.len() as f32)
+                } else {
+                    a
+                }
+            });
+            let mask = match (mask, mask_fit) {
+                (Some(mp), Some((mw, mh, f))) => {
                     let Mask {
                         width,
                         height,
                         bits,
                         ..
                     } = read_mask(mp)?;
-                    let f = fit(width, height, mp)?;
+                    if (width, height) != (mw, mh) {
+                        return Err(Error::format(
+                            mp.display(),
+                            format!("the header says {mw}x{mh} but {width}x{height} pixels were decoded"),
+                        ));
+                    }
                     Some(if f > 1 {
                         // object where most of the block is object
                         box_down(&bits, width, f, tw, th, |b| {
@@ -271,12 +371,13 @@ pub fn load_views(cameras: &[Camera], images: &Path, opts: &ViewOptions) -> Resu
                         bits
                     })
                 }
-                None => None,
+                _ => None,
             };
             Ok(View {
                 camera: target,
                 image,
                 mask,
+                alpha,
                 source: img.display().to_string(),
             })
         })

@@ -202,6 +202,7 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
                     &ViewOptions {
                         downscale: args.downscale,
                         masks: None,
+                        background: None,
                     },
                 )?;
                 let fallback: Vec<[f32; 3]> = b

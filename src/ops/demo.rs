@@ -329,6 +329,7 @@ fn bind_and_refine(
             camera: c.clone(),
             image: gaussian::render(g, c, &s).rgb,
             mask: None,
+            alpha: None,
             source: c.name.clone(),
         })
         .collect();

@@ -169,6 +169,7 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         &ViewOptions {
             downscale,
             masks: args.masks.clone(),
+            background: None,
         },
     )?;
     let (train, test) = split(views.len(), args.test_every);

@@ -578,6 +578,7 @@ fn colours_from_views_take_the_visible_pixel() {
         camera: cam.clone(),
         image,
         mask: None,
+        alpha: None,
         source: "test".into(),
     };
     let fallback = vec![[0.5f32; 3]; b.len()];
