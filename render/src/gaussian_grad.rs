@@ -1,26 +1,43 @@
 //! Backward pass of the Gaussian rasteriser.
 //!
 //! Input: the [`RasterState`] of a forward pass and the gradient of a scalar
-//! loss with respect to each output pixel's RGB (and optionally alpha).
-//! Output: the gradient with respect to every parameter of [`Gaussians3`]
-//! as the rasteriser takes them (activated values: means, scales in world
-//! units, quaternions (w, x, y, z) before normalisation, opacities, SH
-//! coefficients).
+//! loss L with respect to each output pixel's RGB and, optionally
+//! ([`AuxGrads`]), its alpha, its expected depth
+//! ([`crate::gaussian::RenderOutput::expected_depth`], D = Σ w z / Σ w) and
+//! its accumulated normal
+//! ([`crate::gaussian::RenderOutput::normal_sum`], N = Σ w n, camera space,
+//! not normalised), where w = α T are the blend weights, z the view depth
+//! (camera z) of each Gaussian's mean and n its shortest axis turned to face
+//! the camera. Output: the gradient with respect to every parameter of
+//! [`Gaussians3`] as the rasteriser takes them (activated values: means,
+//! scales in world units, quaternions (w, x, y, z) before normalisation,
+//! opacities, SH coefficients), and ∂L/∂(projected mean) in pixels
+//! ([`GaussianGrads::means2d`]).
 //!
 //! Two stages, as in the 3DGS CUDA backward:
 //! 1. per pixel, the blending is walked back to front from the last blended
-//!    contribution (the colour behind each Gaussian is rebuilt as it goes)
-//!    and the gradient reaches each Gaussian's 2-D mean, conic, opacity and
-//!    colour; per-tile buffers aligned with the tile lists keep this
-//!    deterministic, and they are summed in tile order;
+//!    contribution (the colour, depth and normal behind each Gaussian are
+//!    rebuilt as it goes) and the gradient reaches each Gaussian's 2-D mean,
+//!    conic, opacity, colour, depth and normal; per-tile buffers aligned with
+//!    the tile lists keep this deterministic, and they are summed in tile
+//!    order;
 //! 2. per Gaussian, the projection is re-run with [`Dual`] numbers over its
 //!    10 parameters (mean, scale, quaternion), which gives the exact Jacobian
-//!    of the 2-D mean, conic and view-dependent colour; the SH gradient is the
-//!    basis times the colour gradient.
+//!    of the 2-D mean, conic, view depth, normal and view-dependent colour;
+//!    the SH gradient is the basis times the colour gradient.
+//!
+//! The depth and normal outputs are blends like the colour: ∂N/∂α_i =
+//! T_i (n_i − N_behind) and ∂(Σ w z)/∂α_i likewise with background 0, and
+//! D = (Σ w z)/(Σ w) with ∂(Σ w)/∂α_i = T_final/(1 − α_i), as for alpha.
+//! The depth z depends on the mean only; the normal on the quaternion only:
+//! which axis is shortest and the flip towards the camera are taken as
+//! constants, so the scales get no gradient through n (only through the
+//! blend weights).
 //!
 //! Exact derivative of the forward semantics: a clamped α (o·G > 0.99) or a
 //! clamped colour (< 0) passes no gradient; skipped contributions
-//! (α < 1/255) pass none. The depth and normal outputs are not differentiated.
+//! (α < 1/255) pass none. The median depth and the normalised normal map are
+//! not differentiated.
 
 use rayon::prelude::*;
 
@@ -32,7 +49,8 @@ use crate::gaussian::{
 use crate::sh::{basis, coeff_count};
 use crate::tiles::tile_pixels;
 
-/// Gradients, shaped like [`Gaussians3`]'s fields.
+/// Gradients, shaped like [`Gaussians3`]'s fields, plus the screen-space
+/// mean gradient.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GaussianGrads {
     pub means: Vec<[f32; 3]>,
@@ -40,6 +58,49 @@ pub struct GaussianGrads {
     pub rotations: Vec<[f32; 4]>,
     pub opacities: Vec<f32>,
     pub sh: Vec<[f32; 3]>,
+    /// ∂L/∂(x, y) of each Gaussian's projected mean in OpenCV pixel
+    /// coordinates (units: loss per pixel), through the per-pixel blending
+    /// only (as 3DGS's `viewspace_points` gradient: not through the conic,
+    /// depth or colour); zero for Gaussians this view culled. 3DGS's
+    /// densification statistic is the norm of this gradient in NDC units:
+    /// see [`GaussianGrads::means2d_ndc`].
+    pub means2d: Vec<[f32; 2]>,
+}
+
+impl GaussianGrads {
+    /// [`GaussianGrads::means2d`] in 3DGS's NDC units for a `width × height`
+    /// image: x times W/2, y times H/2 (3DGS maps NDC to pixels by
+    /// px = ((ndc + 1)·W − 1)/2, and its CUDA backward scales the pixel
+    /// gradient by 0.5·W, 0.5·H). The norm of this is what 3DGS compares
+    /// with `densify_grad_threshold` (0.0002), for a loss that is a mean
+    /// over pixels as its L1.
+    pub fn means2d_ndc(&self, width: u32, height: u32) -> Vec<[f32; 2]> {
+        self.means2d
+            .iter()
+            .map(|&d| means2d_to_ndc(d, width, height))
+            .collect()
+    }
+}
+
+/// One pixel-space mean gradient ∂L/∂(x, y) converted to 3DGS's NDC
+/// gradient: (x·W/2, y·H/2); see [`GaussianGrads::means2d_ndc`].
+#[inline]
+pub fn means2d_to_ndc(d: [f32; 2], width: u32, height: u32) -> [f32; 2] {
+    [d[0] * 0.5 * width as f32, d[1] * 0.5 * height as f32]
+}
+
+/// Per-pixel gradients of the loss with respect to the auxiliary outputs,
+/// each row-major `width × height` like the image, or `None` for zero.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AuxGrads<'a> {
+    /// ∂L/∂alpha (alpha = 1 − T_final).
+    pub alpha: Option<&'a [f32]>,
+    /// ∂L/∂expected depth ([`crate::gaussian::RenderOutput::expected_depth`],
+    /// Σ w z / Σ w, scene units; pixels where nothing was blended get none).
+    pub depth: Option<&'a [f32]>,
+    /// ∂L/∂normal_sum ([`crate::gaussian::RenderOutput::normal_sum`],
+    /// Σ w n, camera axes, not normalised).
+    pub normal: Option<&'a [[f32; 3]]>,
 }
 
 /// One pixel's state in the backward walk.
@@ -51,18 +112,28 @@ struct PixelBack {
     /// Colour behind the current contribution (normalised).
     behind: [f32; 3],
     gc: [f32; 3],
+    /// ∂L/∂alpha, with the expected depth's dependence on Σ w folded in.
     ga: f32,
     last: u32,
+    /// Σ w z and Σ w n behind the current contribution (normalised,
+    /// background 0) and ∂L/∂(Σ w z), ∂L/∂(Σ w n).
+    behind_z: f32,
+    behind_n: [f32; 3],
+    gz: f32,
+    gn: [f32; 3],
 }
 
-/// Per projected Gaussian: ∂L/∂(x, y, conic a, b, c, opacity, r, g, b).
-type Screen = [f32; 9];
+/// Length of the per-Gaussian screen gradient: ∂L/∂(x, y, conic a, b, c,
+/// opacity, r, g, b), then, with auxiliary gradients, ∂L/∂(z, n_x, n_y, n_z).
+const SCREEN: usize = 9;
+const SCREEN_AUX: usize = 13;
 
-/// Index, ∂L/∂(mean, scale, quaternion), ∂L/∂opacity, ∂L/∂SH.
-type PerGaussian = (usize, [f64; 10], f32, [[f32; 3]; 16]);
+/// Index, ∂L/∂(mean, scale, quaternion), ∂L/∂opacity, ∂L/∂SH, ∂L/∂xy.
+type PerGaussian = (usize, [f64; 10], f32, [[f32; 3]; 16], [f32; 2]);
 
 /// Gradient of the loss with respect to `g`, given ∂L/∂rgb per pixel
-/// (row-major, `width × height`) and optionally ∂L/∂alpha.
+/// (row-major, `width × height`) and optionally ∂L/∂alpha. Same as
+/// [`backward_aux`] with only the alpha gradient.
 pub fn backward(
     g: &Gaussians3,
     cam: &Camera,
@@ -71,16 +142,63 @@ pub fn backward(
     d_rgb: &[[f32; 3]],
     d_alpha: Option<&[f32]>,
 ) -> GaussianGrads {
+    let aux = AuxGrads {
+        alpha: d_alpha,
+        ..Default::default()
+    };
+    backward_aux(g, cam, s, state, d_rgb, &aux)
+}
+
+/// Gradient of the loss with respect to `g` (and the projected means),
+/// given ∂L/∂rgb per pixel (row-major, `width × height`) and the auxiliary
+/// outputs' gradients `aux`. Deterministic for any thread count.
+pub fn backward_aux(
+    g: &Gaussians3,
+    cam: &Camera,
+    s: &RasterSettings,
+    state: &RasterState,
+    d_rgb: &[[f32; 3]],
+    aux: &AuxGrads,
+) -> GaussianGrads {
     let (w, h) = (cam.width as usize, cam.height as usize);
     assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
+    for len in [
+        aux.alpha.map(<[f32]>::len),
+        aux.depth.map(<[f32]>::len),
+        aux.normal.map(<[[f32; 3]]>::len),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        assert_eq!(len, w * h, "one auxiliary gradient per pixel");
+    }
+    if aux.depth.is_some() || aux.normal.is_some() {
+        let screen = screen_grads::<SCREEN_AUX>(s, state, d_rgb, aux, w, h);
+        through_projection(g, cam, s, state, &screen)
+    } else {
+        let screen = screen_grads::<SCREEN>(s, state, d_rgb, aux, w, h);
+        through_projection(g, cam, s, state, &screen)
+    }
+}
+
+/// Stage 1: per projected Gaussian, ∂L/∂ its screen quantities (K =
+/// [`SCREEN`], or [`SCREEN_AUX`] to include depth and normal).
+fn screen_grads<const K: usize>(
+    s: &RasterSettings,
+    state: &RasterState,
+    d_rgb: &[[f32; 3]],
+    aux: &AuxGrads,
+    w: usize,
+    h: usize,
+) -> Vec<[f64; K]> {
+    let geo = K > SCREEN;
     let tw = state.tiles.tiles_x;
     let proj = &state.proj;
-    // 1. per tile, per list entry
-    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.len())
+    let tile_grads: Vec<Vec<[f32; K]>> = (0..state.tiles.len())
         .into_par_iter()
         .map(|ti| {
             let list = state.tiles.list(ti);
-            let mut acc = vec![[0.0f32; 9]; list.len()];
+            let mut acc = vec![[0.0f32; K]; list.len()];
             let (tx, ty) = (ti % tw, ti / tw);
             let (x0, y0) = (tx * TILE, ty * TILE);
             // per-pixel state of the backward walk
@@ -89,14 +207,27 @@ pub fn backward(
             for (x, y) in tile_pixels(ti, tw, w, h) {
                 let o = y * w + x;
                 max_last = max_last.max(state.last[o]);
-                px_state[(y - y0) * TILE + (x - x0)] = PixelBack {
+                let mut b = PixelBack {
                     t: state.final_t[o],
                     t_final: state.final_t[o],
                     behind: s.background,
                     gc: d_rgb[o],
-                    ga: d_alpha.map_or(0.0, |a| a[o]),
+                    ga: aux.alpha.map_or(0.0, |a| a[o]),
                     last: state.last[o],
+                    ..Default::default()
                 };
+                if geo {
+                    let ws = state.weight_sum[o];
+                    if let (Some(dd), true) = (aux.depth, ws > 0.0) {
+                        // D = S / W: ∂L/∂S = g/W, ∂L/∂W = −g·D/W
+                        b.gz = dd[o] / ws;
+                        b.ga -= dd[o] * state.expected_depth[o] / ws;
+                    }
+                    if let Some(dn) = aux.normal {
+                        b.gn = dn[o];
+                    }
+                }
+                px_state[(y - y0) * TILE + (x - x0)] = b;
             }
             // Gaussian-major, back to front: each pixel still walks its own
             // contributions in reverse list order
@@ -105,7 +236,7 @@ pub fn backward(
                 let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
                     continue;
                 };
-                let mut e = [0.0f32; 9];
+                let mut e = [0.0f32; K];
                 for y in ya..=yb {
                     let py = y as f32 + 0.5;
                     let dy = p.xy[1] - py;
@@ -135,6 +266,17 @@ pub fn backward(
                             d_a += b.gc[k] * (p.rgb[k] - b.behind[k]) * b.t;
                             b.behind[k] = alpha * p.rgb[k] + (1.0 - alpha) * b.behind[k];
                         }
+                        if geo {
+                            e[SCREEN] += b.gz * wgt;
+                            d_a += b.gz * (p.depth - b.behind_z) * b.t;
+                            b.behind_z = alpha * p.depth + (1.0 - alpha) * b.behind_z;
+                            for k in 0..3 {
+                                e[SCREEN + 1 + k] += b.gn[k] * wgt;
+                                d_a += b.gn[k] * (p.normal[k] - b.behind_n[k]) * b.t;
+                                b.behind_n[k] =
+                                    alpha * p.normal[k] + (1.0 - alpha) * b.behind_n[k];
+                            }
+                        }
                         d_a += b.ga * b.t_final / (1.0 - alpha);
                         if raw >= 0.99 {
                             continue;
@@ -153,8 +295,17 @@ pub fn backward(
             acc
         })
         .collect();
-    let screen = state.tiles.gather(&tile_grads);
-    // 2. per Gaussian, through the projection
+    state.tiles.gather(&tile_grads)
+}
+
+/// Stage 2: the screen gradients through each Gaussian's projection.
+fn through_projection<const K: usize>(
+    g: &Gaussians3,
+    cam: &Camera,
+    s: &RasterSettings,
+    state: &RasterState,
+    screen: &[[f64; K]],
+) -> GaussianGrads {
     let n = g.len();
     let nc = coeff_count(g.sh_degree);
     let mut out = GaussianGrads {
@@ -163,10 +314,12 @@ pub fn backward(
         rotations: vec![[0.0; 4]; n],
         opacities: vec![0.0; n],
         sh: vec![[0.0; 3]; n * nc],
+        means2d: vec![[0.0; 2]; n],
     };
     let rows = rotation_rows(cam);
     let center = cam.center();
-    let per: Vec<PerGaussian> = proj
+    let per: Vec<PerGaussian> = state
+        .proj
         .par_iter()
         .zip(screen.par_iter())
         .map(|(p, d)| {
@@ -180,20 +333,21 @@ pub fn backward(
             let mut grad = [0.0f64; 10];
             let mut dsh = [[0.0f32; 3]; 16];
             if let Some(pt) = project_t(mean, scale, quat, None, g.sh_degree, cam, &rows, s) {
-                let outs = [
-                    (pt.xy[0], d[0]),
-                    (pt.xy[1], d[1]),
-                    (pt.conic[0], d[2]),
-                    (pt.conic[1], d[3]),
-                    (pt.conic[2], d[4]),
-                ];
                 let mut add = |v: &Dual<10>, gv: f64| {
                     for (gk, dk) in grad.iter_mut().zip(v.d) {
                         *gk += dk * gv;
                     }
                 };
-                for (v, gv) in outs {
-                    add(&v, gv);
+                add(&pt.xy[0], d[0]);
+                add(&pt.xy[1], d[1]);
+                for k in 0..3 {
+                    add(&pt.conic[k], d[2 + k]);
+                }
+                if K > SCREEN {
+                    add(&pt.depth, d[SCREEN]);
+                    for k in 0..3 {
+                        add(&pt.normal[k], d[SCREEN + 1 + k]);
+                    }
                 }
                 // colour: depends on the mean only, through the view direction
                 let m3: [Dual<3>; 3] = std::array::from_fn(|k| Dual::var(g.means[i][k] as f64, k));
@@ -217,15 +371,16 @@ pub fn backward(
                     }
                 }
             }
-            (i, grad, d[5] as f32, dsh)
+            (i, grad, d[5] as f32, dsh, [d[0] as f32, d[1] as f32])
         })
         .collect();
-    for (i, grad, dop, dsh) in per {
+    for (i, grad, dop, dsh, dxy) in per {
         out.means[i] = std::array::from_fn(|k| grad[k] as f32);
         out.scales[i] = std::array::from_fn(|k| grad[3 + k] as f32);
         out.rotations[i] = std::array::from_fn(|k| grad[6 + k] as f32);
         out.opacities[i] = dop;
         out.sh[i * nc..(i + 1) * nc].copy_from_slice(&dsh[..nc]);
+        out.means2d[i] = dxy;
     }
     out
 }
