@@ -748,8 +748,7 @@ impl RasterState {
     ) -> impl Iterator<Item = (usize, f32)> + '_ {
         self.proj.iter().filter_map(move |p| {
             let (x, y, r) = (p.xy[0], p.xy[1], p.radius);
-            tile_rect_cuda([x - r, y - r, x + r, y + r], width, height)
-                .map(|_| (p.id as usize, r))
+            tile_rect_cuda([x - r, y - r, x + r, y + r], width, height).map(|_| (p.id as usize, r))
         })
     }
 }

@@ -273,8 +273,7 @@ fn screen_grads<const K: usize>(
                             for k in 0..3 {
                                 e[SCREEN + 1 + k] += b.gn[k] * wgt;
                                 d_a += b.gn[k] * (p.normal[k] - b.behind_n[k]) * b.t;
-                                b.behind_n[k] =
-                                    alpha * p.normal[k] + (1.0 - alpha) * b.behind_n[k];
+                                b.behind_n[k] = alpha * p.normal[k] + (1.0 - alpha) * b.behind_n[k];
                             }
                         }
                         d_a += b.ga * b.t_final / (1.0 - alpha);
@@ -388,7 +387,7 @@ fn through_projection<const K: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gaussian::rasterize;
+    use crate::gaussian::{RenderOutput, rasterize};
     use crate::testutil::{Lcg, check_gradient, linear_loss, random_sh, test_camera};
 
     /// A scene whose image is smooth in every parameter: a few large
@@ -498,5 +497,238 @@ mod tests {
                 })
         };
         assert_eq!(run(1), run(3));
+        // with depth and normal gradients too
+        let (wd, wn) = aux_weights(48 * 40, 6);
+        let run_aux = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool")
+                .install(|| {
+                    let (_, st) = rasterize(&g, &cam, &s);
+                    let aux = AuxGrads {
+                        alpha: Some(&wa),
+                        depth: Some(&wd),
+                        normal: Some(&wn),
+                    };
+                    backward_aux(&g, &cam, &s, &st, &wr, &aux)
+                })
+        };
+        assert_eq!(run_aux(1), run_aux(3));
+        // zero depth and normal gradients: the same as the plain backward
+        let zd = vec![0.0f32; 48 * 40];
+        let zn = vec![[0.0f32; 3]; 48 * 40];
+        let (_, st) = rasterize(&g, &cam, &s);
+        let aux = AuxGrads {
+            alpha: Some(&wa),
+            depth: Some(&zd),
+            normal: Some(&zn),
+        };
+        assert_eq!(
+            backward_aux(&g, &cam, &s, &st, &wr, &aux),
+            backward(&g, &cam, &s, &st, &wr, Some(&wa))
+        );
+    }
+
+    /// Random weights in [−1, 1] for a linear loss over the expected depth
+    /// and the accumulated normal.
+    fn aux_weights(pixels: usize, seed: u64) -> (Vec<f32>, Vec<[f32; 3]>) {
+        let mut r = Lcg(seed);
+        let wd = (0..pixels).map(|_| r.range(-1.0, 1.0)).collect();
+        let wn = (0..pixels)
+            .map(|_| [r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)])
+            .collect();
+        (wd, wn)
+    }
+
+    /// Σ w·rgb + Σ v·alpha + Σ u·expected depth + Σ q·normal_sum, in f64.
+    fn eval_full(
+        img: &RenderOutput,
+        (wr, wa): (&[[f32; 3]], &[f32]),
+        (wd, wn): (&[f32], &[[f32; 3]]),
+    ) -> f64 {
+        let mut l = crate::testutil::eval_linear(&img.rgb, &img.alpha, wr, wa);
+        for i in 0..img.rgb.len() {
+            l += img.expected_depth[i] as f64 * wd[i] as f64;
+            for k in 0..3 {
+                l += img.normal_sum[i][k] as f64 * wn[i][k] as f64;
+            }
+        }
+        l
+    }
+
+    /// The depth and normal gradients, with the colour and alpha ones, on
+    /// the smooth scenes of [`gradients_match_finite_differences`] against
+    /// central differences of L = Σ w·rgb + Σ v·alpha + Σ u·D + Σ q·N with
+    /// random weights (D expected depth, N = Σ w n). Same tolerance as
+    /// there ([`check_gradient`]: 2% relative, or 3e-5/h absolute for
+    /// entries near zero): the depth term adds values near 5 per pixel,
+    /// whose f32 rounding (≈ 3e-7 each, random in sign) sums to about 1e-5
+    /// over the 1920 pixels, the noise level the floor is made for. The
+    /// scales (4–7, 4–7, 1–3) keep the third axis the shortest under every
+    /// step, so the normal's axis choice does not flip. Then ∂L/∂(projected
+    /// x, y) ([`GaussianGrads::means2d`]) against central differences in
+    /// which the projected means themselves are moved (h = 0.05 px) and the
+    /// projected Gaussians re-blended.
+    #[test]
+    fn aux_gradients_match_finite_differences() {
+        use crate::gaussian::{Projected, blend_projected, render};
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings {
+            background: [0.2, 0.3, 0.1],
+            ..Default::default()
+        };
+        for seed in [1u64, 2, 3] {
+            let g = smooth_scene(seed);
+            let (wr, wa) = linear_loss(48 * 40, seed + 100);
+            let (wd, wn) = aux_weights(48 * 40, seed + 200);
+            let weights = ((&wr[..], &wa[..]), (&wd[..], &wn[..]));
+            let loss = |g: &Gaussians3| eval_full(&render(g, &cam, &s), weights.0, weights.1);
+            let (img, state) = rasterize(&g, &cam, &s);
+            assert!(img.count.iter().all(|&c| c == 6));
+            let aux = AuxGrads {
+                alpha: Some(&wa),
+                depth: Some(&wd),
+                normal: Some(&wn),
+            };
+            let gr = backward_aux(&g, &cam, &s, &state, &wr, &aux);
+            let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
+            check_gradient("aux means", &flat(&gr.means), 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.means[k / 3][k % 3] += h as f32;
+                loss(&g2)
+            });
+            check_gradient("aux scales", &flat(&gr.scales), 5e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.scales[k / 3][k % 3] += h as f32;
+                loss(&g2)
+            });
+            let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
+            check_gradient("aux rotations", &rot, 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.rotations[k / 4][k % 4] += h as f32;
+                loss(&g2)
+            });
+            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
+            check_gradient("aux opacities", &op, 1e-3, |k, h| {
+                let mut g2 = g.clone();
+                g2.opacities[k] += h as f32;
+                loss(&g2)
+            });
+            // the projected means moved directly
+            let m2d: Vec<f64> = gr.means2d.iter().flatten().map(|&x| x as f64).collect();
+            check_gradient("means2d", &m2d, 5e-2, |k, h| {
+                let mut proj: Vec<Projected> = state.proj.clone();
+                let j = proj
+                    .iter()
+                    .position(|p| p.id as usize == k / 2)
+                    .expect("visible");
+                proj[j].xy[k % 2] += h as f32;
+                let (img, _) = blend_projected(proj, 48, 40, &s);
+                eval_full(&img, weights.0, weights.1)
+            });
+        }
+    }
+
+    /// Depth and normal separately (each alone in the loss), so that one
+    /// cannot hide an error in the other behind the colour terms.
+    #[test]
+    fn depth_and_normal_gradients_alone() {
+        use crate::gaussian::{RenderOutput, render};
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings::default();
+        let g = smooth_scene(4);
+        let zero_rgb = vec![[0.0f32; 3]; 48 * 40];
+        let zero_a = vec![0.0f32; 48 * 40];
+        let zero_n = vec![[0.0f32; 3]; 48 * 40];
+        let (wd, wn) = aux_weights(48 * 40, 11);
+        let (_, state) = rasterize(&g, &cam, &s);
+        for (name, depth, normal) in [
+            ("depth", &wd[..], &zero_n[..]),
+            ("normal", &zero_a[..], &wn[..]),
+        ] {
+            let loss = |g: &Gaussians3| {
+                let img: RenderOutput = render(g, &cam, &s);
+                eval_full(&img, (&zero_rgb, &zero_a), (depth, normal))
+            };
+            let aux = AuxGrads {
+                alpha: None,
+                depth: Some(depth),
+                normal: Some(normal),
+            };
+            let gr = backward_aux(&g, &cam, &s, &state, &zero_rgb, &aux);
+            let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
+            check_gradient(&format!("{name}: means"), &flat(&gr.means), 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.means[k / 3][k % 3] += h as f32;
+                loss(&g2)
+            });
+            check_gradient(
+                &format!("{name}: scales"),
+                &flat(&gr.scales),
+                5e-2,
+                |k, h| {
+                    let mut g2 = g.clone();
+                    g2.scales[k / 3][k % 3] += h as f32;
+                    loss(&g2)
+                },
+            );
+            let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
+            check_gradient(&format!("{name}: rotations"), &rot, 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.rotations[k / 4][k % 4] += h as f32;
+                loss(&g2)
+            });
+            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
+            check_gradient(&format!("{name}: opacities"), &op, 1e-3, |k, h| {
+                let mut g2 = g.clone();
+                g2.opacities[k] += h as f32;
+                loss(&g2)
+            });
+        }
+    }
+
+    /// The NDC conversion is 3DGS's: x·W/2, y·H/2.
+    #[test]
+    fn means2d_ndc_scales_by_half_the_image() {
+        let gr = GaussianGrads {
+            means2d: vec![[1.0, -2.0], [0.0, 0.5]],
+            ..Default::default()
+        };
+        assert_eq!(gr.means2d_ndc(100, 50), vec![[50.0, -50.0], [0.0, 12.5]]);
+    }
+
+    /// Radii: the projection's radius for the visible Gaussians, 0 for one
+    /// behind the camera and one far off screen; the mean gradient of the
+    /// culled ones is zero.
+    #[test]
+    fn radii_of_the_visible_set() {
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings::default();
+        let mut g = smooth_scene(5);
+        g.means[1] = [0.0, 0.0, -3.0];
+        g.means[4] = [500.0, 0.0, 3.0];
+        let (_, st) = rasterize(&g, &cam, &s);
+        let radii = st.radii(g.len(), 48, 40);
+        for (i, &r) in radii.iter().enumerate() {
+            if i == 1 || i == 4 {
+                assert_eq!(r, 0.0, "{i}");
+            } else {
+                let p = st
+                    .proj
+                    .iter()
+                    .find(|p| p.id as usize == i)
+                    .expect("projected");
+                assert_eq!(r, p.radius);
+                assert!(r > 0.0);
+            }
+        }
+        let vis: Vec<usize> = st.visible_radii(48, 40).map(|(i, _)| i).collect();
+        assert_eq!(vis.len(), 4);
+        let (wr, _) = linear_loss(48 * 40, 1);
+        let gr = backward(&g, &cam, &s, &st, &wr, None);
+        assert_eq!(gr.means2d[1], [0.0; 2]);
+        assert_eq!(gr.means2d[4], [0.0; 2]);
+        assert!(gr.means2d[0] != [0.0; 2]);
     }
 }
