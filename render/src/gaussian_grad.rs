@@ -550,8 +550,8 @@ mod tests {
         let mut l = crate::testutil::eval_linear(&img.rgb, &img.alpha, wr, wa);
         for i in 0..img.rgb.len() {
             l += img.expected_depth[i] as f64 * wd[i] as f64;
-            for k in 0..3 {
-                l += img.normal_sum[i][k] as f64 * wn[i][k] as f64;
+            for (n, q) in img.normal_sum[i].iter().zip(wn[i]) {
+                l += *n as f64 * q as f64;
             }
         }
         l

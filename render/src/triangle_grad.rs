@@ -408,8 +408,8 @@ mod tests {
         let mut l = eval_linear(&img.rgb, &img.alpha, wr, wa);
         for i in 0..img.rgb.len() {
             l += img.expected_depth[i] as f64 * wd[i] as f64;
-            for k in 0..3 {
-                l += img.normal_sum[i][k] as f64 * wn[i][k] as f64;
+            for (n, q) in img.normal_sum[i].iter().zip(wn[i]) {
+                l += *n as f64 * q as f64;
             }
         }
         l
@@ -472,7 +472,15 @@ mod tests {
             let (wd, wn) = aux_weights(48 * 40, seed + 70);
             let (img, state) = rasterize(&t, &cam, &s);
             assert!(img.count.iter().all(|&c| c == 5));
-            let cases: [(&str, &[[f32; 3]], &[f32], &[f32], &[[f32; 3]]); 3] = [
+            // (name, ∂L/∂rgb, ∂L/∂alpha, ∂L/∂depth, ∂L/∂normal_sum)
+            type Case<'a> = (
+                &'a str,
+                &'a [[f32; 3]],
+                &'a [f32],
+                &'a [f32],
+                &'a [[f32; 3]],
+            );
+            let cases: [Case; 3] = [
                 ("all", &wr, &wa, &wd, &wn),
                 ("depth", &zero_rgb, &zero_a, &wd, &zero_n),
                 ("normal", &zero_rgb, &zero_a, &zero_a, &wn),
