@@ -27,8 +27,12 @@
 //! last contribution made while the transmittance before it was above 0.5,
 //! as 2DGS's kernel keeps it, so also where the final alpha stays below 0.5;
 //! 0 only where nothing was blended),
-//! a normal map (Σ w n / Σ w of each Gaussian's shortest axis turned to face
-//! the camera, camera axes) and the number of blended contributions.
+//! a normal map (Σ w n / |Σ w n| of each Gaussian's shortest axis turned to
+//! face the camera, camera axes), the unnormalised accumulated normal Σ w n
+//! (2DGS's normal-consistency input) and the number of blended contributions.
+//! The expected depth and Σ w n are differentiated by
+//! [`crate::gaussian_grad::backward_aux`]; the median depth and the
+//! normalised normal map are not.
 
 use rayon::prelude::*;
 
@@ -109,10 +113,18 @@ pub struct RenderOutput {
     pub height: usize,
     pub rgb: Vec<[f32; 3]>,
     pub alpha: Vec<f32>,
+    /// Σ w z / Σ w with w = α T the blend weights and z each primitive's
+    /// view depth (camera z, scene units); 0 where nothing was blended.
     pub expected_depth: Vec<f32>,
     pub median_depth: Vec<f32>,
-    /// Camera-space unit normals (zero where nothing was blended).
+    /// Camera-space unit normals Σ w n / |Σ w n| (zero where nothing was
+    /// blended).
     pub normal: Vec<[f32; 3]>,
+    /// The accumulated normal Σ w n, camera space, not normalised (its
+    /// length is at most the alpha); zero where nothing was blended. What
+    /// 2DGS's normal consistency compares with the depth normal, and what
+    /// the backward passes take a normal gradient for.
+    pub normal_sum: Vec<[f32; 3]>,
     pub count: Vec<u32>,
 }
 
@@ -182,12 +194,14 @@ pub(crate) struct ProjectedT<T> {
     pub conic: [T; 3],
     /// SH colour + 0.5, before the clamp at 0.
     pub rgb: [T; 3],
-    pub depth: f64,
+    /// View depth: camera z of the mean.
+    pub depth: T,
     pub radius: f64,
     /// 2-D covariance diagonal (Σ'_xx, Σ'_yy), pixels².
     pub cov_diag: [f64; 2],
-    /// Camera-space normal facing the camera.
-    pub normal: [f64; 3],
+    /// Camera-space normal facing the camera: the shortest axis (the choice
+    /// and the flip are made on the values, so they carry no derivative).
+    pub normal: [T; 3],
 }
 
 /// World-to-camera rotation as rows.
@@ -298,17 +312,17 @@ pub(crate) fn project_t<T: Real>(
     let k = (0..3)
         .min_by(|&p, &q| sv[p].total_cmp(&sv[q]))
         .expect("three axes");
-    let axis: [f64; 3] = std::array::from_fn(|i| {
-        rows[i][0] * rq[0][k].val() + rows[i][1] * rq[1][k].val() + rows[i][2] * rq[2][k].val()
+    let axis: [T; 3] = std::array::from_fn(|i| {
+        rq[0][k] * rows[i][0] + rq[1][k] * rows[i][1] + rq[2][k] * rows[i][2]
     });
-    let tv = t.map(|v| v.val());
-    let facing = axis[0] * tv[0] + axis[1] * tv[1] + axis[2] * tv[2] > 0.0;
+    let (av, tv) = (axis.map(|v| v.val()), t.map(|v| v.val()));
+    let facing = av[0] * tv[0] + av[1] * tv[1] + av[2] * tv[2] > 0.0;
     let normal = if facing { axis.map(|v| -v) } else { axis };
     Some(ProjectedT {
         xy: [px, py],
         conic,
         rgb,
-        depth: z,
+        depth: t[2],
         radius,
         cov_diag: [ca.val(), cc.val()],
         normal,
@@ -390,6 +404,8 @@ struct PixelOut {
     expected_depth: f32,
     median_depth: f32,
     normal: [f32; 3],
+    normal_sum: [f32; 3],
+    weight_sum: f32,
     count: u32,
     /// Transmittance left after the last blended contribution.
     final_t: f32,
@@ -538,6 +554,8 @@ fn render_tile(
             count: a.n,
             final_t: a.t,
             last: a.last,
+            normal_sum: a.nsum,
+            weight_sum: a.wsum,
             ..Default::default()
         };
         if a.wsum > 0.0 {
@@ -689,13 +707,50 @@ fn in_ext_box(p: &Projected, x: usize, y: usize) -> bool {
 
 /// What the forward pass keeps for the backward pass: the projected
 /// Gaussians, the per-tile front-to-back lists and, per pixel, the final
-/// transmittance and the list position past its last blended contribution.
+/// transmittance, the list position past its last blended contribution, the
+/// expected depth and the weight sum Σ w it was divided by.
 #[derive(Clone, Debug, Default)]
 pub struct RasterState {
     pub proj: Vec<Projected>,
     pub tiles: TileLists,
     pub final_t: Vec<f32>,
     pub last: Vec<u32>,
+    /// Per pixel, [`RenderOutput::expected_depth`].
+    pub expected_depth: Vec<f32>,
+    /// Per pixel, Σ w (= 1 − T up to rounding), 0 where nothing was blended.
+    pub weight_sum: Vec<f32>,
+}
+
+impl RasterState {
+    /// Screen radius (pixels, ⌈3·√λ_max(Σ')⌉ as 3DGS's `radii`) of each of
+    /// `count` Gaussians, 0 for those this view culled. Like 3DGS, a
+    /// Gaussian counts as visible (radius > 0, its `visibility_filter`)
+    /// when it passed the projection and the kernel's tile range of its
+    /// 3σ box ([`crate::tiles::tile_rect_cuda`]) on the `width × height`
+    /// image is not empty, even where no pixel blends it.
+    pub fn radii(&self, count: usize, width: usize, height: usize) -> Vec<f32> {
+        let mut out = vec![0.0f32; count];
+        for p in &self.proj {
+            let (x, y, r) = (p.xy[0], p.xy[1], p.radius);
+            if tile_rect_cuda([x - r, y - r, x + r, y + r], width, height).is_some() {
+                out[p.id as usize] = r;
+            }
+        }
+        out
+    }
+
+    /// The visible Gaussians (as [`RasterState::radii`] counts them) with
+    /// their screen radius in pixels, in projection order.
+    pub fn visible_radii(
+        &self,
+        width: usize,
+        height: usize,
+    ) -> impl Iterator<Item = (usize, f32)> + '_ {
+        self.proj.iter().filter_map(move |p| {
+            let (x, y, r) = (p.xy[0], p.xy[1], p.radius);
+            tile_rect_cuda([x - r, y - r, x + r, y + r], width, height).map(|_| (p.id as usize, r))
+        })
+    }
 }
 
 /// Renders `g` from `cam`.
@@ -711,6 +766,17 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
         .into_par_iter()
         .filter_map(|i| project_with(g, i, cam, &rows, s))
         .collect();
+    blend_projected(proj, w, h, s)
+}
+
+/// Bins and blends already projected Gaussians on a `w × h` image: the
+/// second half of [`rasterize`] (tests perturb the projection through it).
+pub(crate) fn blend_projected(
+    proj: Vec<Projected>,
+    w: usize,
+    h: usize,
+    s: &RasterSettings,
+) -> (RenderOutput, RasterState) {
     let (tw, th) = (w.div_ceil(TILE), h.div_ceil(TILE));
     if tw == 0 || th == 0 {
         return (
@@ -732,10 +798,12 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
         expected_depth: vec![0.0; w * h],
         median_depth: vec![0.0; w * h],
         normal: vec![[0.0; 3]; w * h],
+        normal_sum: vec![[0.0; 3]; w * h],
         count: vec![0; w * h],
     };
     let mut final_t = vec![1.0f32; w * h];
     let mut last = vec![0u32; w * h];
+    let mut weight_sum = vec![0.0f32; w * h];
     render_tiles(
         tw,
         th,
@@ -748,9 +816,11 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
             out.expected_depth[o] = p.expected_depth;
             out.median_depth[o] = p.median_depth;
             out.normal[o] = p.normal;
+            out.normal_sum[o] = p.normal_sum;
             out.count[o] = p.count;
             final_t[o] = p.final_t;
             last[o] = p.last;
+            weight_sum[o] = p.weight_sum;
         },
     );
     let state = RasterState {
@@ -758,6 +828,8 @@ pub fn rasterize(g: &Gaussians3, cam: &Camera, s: &RasterSettings) -> (RenderOut
         tiles,
         final_t,
         last,
+        expected_depth: out.expected_depth.clone(),
+        weight_sum,
     };
     (out, state)
 }

@@ -1,26 +1,43 @@
 //! Backward pass of the Gaussian rasteriser.
 //!
 //! Input: the [`RasterState`] of a forward pass and the gradient of a scalar
-//! loss with respect to each output pixel's RGB (and optionally alpha).
-//! Output: the gradient with respect to every parameter of [`Gaussians3`]
-//! as the rasteriser takes them (activated values: means, scales in world
-//! units, quaternions (w, x, y, z) before normalisation, opacities, SH
-//! coefficients).
+//! loss L with respect to each output pixel's RGB and, optionally
+//! ([`AuxGrads`]), its alpha, its expected depth
+//! ([`crate::gaussian::RenderOutput::expected_depth`], D = Σ w z / Σ w) and
+//! its accumulated normal
+//! ([`crate::gaussian::RenderOutput::normal_sum`], N = Σ w n, camera space,
+//! not normalised), where w = α T are the blend weights, z the view depth
+//! (camera z) of each Gaussian's mean and n its shortest axis turned to face
+//! the camera. Output: the gradient with respect to every parameter of
+//! [`Gaussians3`] as the rasteriser takes them (activated values: means,
+//! scales in world units, quaternions (w, x, y, z) before normalisation,
+//! opacities, SH coefficients), and ∂L/∂(projected mean) in pixels
+//! ([`GaussianGrads::means2d`]).
 //!
 //! Two stages, as in the 3DGS CUDA backward:
 //! 1. per pixel, the blending is walked back to front from the last blended
-//!    contribution (the colour behind each Gaussian is rebuilt as it goes)
-//!    and the gradient reaches each Gaussian's 2-D mean, conic, opacity and
-//!    colour; per-tile buffers aligned with the tile lists keep this
-//!    deterministic, and they are summed in tile order;
+//!    contribution (the colour, depth and normal behind each Gaussian are
+//!    rebuilt as it goes) and the gradient reaches each Gaussian's 2-D mean,
+//!    conic, opacity, colour, depth and normal; per-tile buffers aligned with
+//!    the tile lists keep this deterministic, and they are summed in tile
+//!    order;
 //! 2. per Gaussian, the projection is re-run with [`Dual`] numbers over its
 //!    10 parameters (mean, scale, quaternion), which gives the exact Jacobian
-//!    of the 2-D mean, conic and view-dependent colour; the SH gradient is the
-//!    basis times the colour gradient.
+//!    of the 2-D mean, conic, view depth, normal and view-dependent colour;
+//!    the SH gradient is the basis times the colour gradient.
+//!
+//! The depth and normal outputs are blends like the colour: ∂N/∂α_i =
+//! T_i (n_i − N_behind) and ∂(Σ w z)/∂α_i likewise with background 0, and
+//! D = (Σ w z)/(Σ w) with ∂(Σ w)/∂α_i = T_final/(1 − α_i), as for alpha.
+//! The depth z depends on the mean only; the normal on the quaternion only:
+//! which axis is shortest and the flip towards the camera are taken as
+//! constants, so the scales get no gradient through n (only through the
+//! blend weights).
 //!
 //! Exact derivative of the forward semantics: a clamped α (o·G > 0.99) or a
 //! clamped colour (< 0) passes no gradient; skipped contributions
-//! (α < 1/255) pass none. The depth and normal outputs are not differentiated.
+//! (α < 1/255) pass none. The median depth and the normalised normal map are
+//! not differentiated.
 
 use rayon::prelude::*;
 
@@ -32,7 +49,8 @@ use crate::gaussian::{
 use crate::sh::{basis, coeff_count};
 use crate::tiles::tile_pixels;
 
-/// Gradients, shaped like [`Gaussians3`]'s fields.
+/// Gradients, shaped like [`Gaussians3`]'s fields, plus the screen-space
+/// mean gradient.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GaussianGrads {
     pub means: Vec<[f32; 3]>,
@@ -40,6 +58,49 @@ pub struct GaussianGrads {
     pub rotations: Vec<[f32; 4]>,
     pub opacities: Vec<f32>,
     pub sh: Vec<[f32; 3]>,
+    /// ∂L/∂(x, y) of each Gaussian's projected mean in OpenCV pixel
+    /// coordinates (units: loss per pixel), through the per-pixel blending
+    /// only (as 3DGS's `viewspace_points` gradient: not through the conic,
+    /// depth or colour); zero for Gaussians this view culled. 3DGS's
+    /// densification statistic is the norm of this gradient in NDC units:
+    /// see [`GaussianGrads::means2d_ndc`].
+    pub means2d: Vec<[f32; 2]>,
+}
+
+impl GaussianGrads {
+    /// [`GaussianGrads::means2d`] in 3DGS's NDC units for a `width × height`
+    /// image: x times W/2, y times H/2 (3DGS maps NDC to pixels by
+    /// px = ((ndc + 1)·W − 1)/2, and its CUDA backward scales the pixel
+    /// gradient by 0.5·W, 0.5·H). The norm of this is what 3DGS compares
+    /// with `densify_grad_threshold` (0.0002), for a loss that is a mean
+    /// over pixels as its L1.
+    pub fn means2d_ndc(&self, width: u32, height: u32) -> Vec<[f32; 2]> {
+        self.means2d
+            .iter()
+            .map(|&d| means2d_to_ndc(d, width, height))
+            .collect()
+    }
+}
+
+/// One pixel-space mean gradient ∂L/∂(x, y) converted to 3DGS's NDC
+/// gradient: (x·W/2, y·H/2); see [`GaussianGrads::means2d_ndc`].
+#[inline]
+pub fn means2d_to_ndc(d: [f32; 2], width: u32, height: u32) -> [f32; 2] {
+    [d[0] * 0.5 * width as f32, d[1] * 0.5 * height as f32]
+}
+
+/// Per-pixel gradients of the loss with respect to the auxiliary outputs,
+/// each row-major `width × height` like the image, or `None` for zero.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AuxGrads<'a> {
+    /// ∂L/∂alpha (alpha = 1 − T_final).
+    pub alpha: Option<&'a [f32]>,
+    /// ∂L/∂expected depth ([`crate::gaussian::RenderOutput::expected_depth`],
+    /// Σ w z / Σ w, scene units; pixels where nothing was blended get none).
+    pub depth: Option<&'a [f32]>,
+    /// ∂L/∂normal_sum ([`crate::gaussian::RenderOutput::normal_sum`],
+    /// Σ w n, camera axes, not normalised).
+    pub normal: Option<&'a [[f32; 3]]>,
 }
 
 /// One pixel's state in the backward walk.
@@ -51,18 +112,28 @@ struct PixelBack {
     /// Colour behind the current contribution (normalised).
     behind: [f32; 3],
     gc: [f32; 3],
+    /// ∂L/∂alpha, with the expected depth's dependence on Σ w folded in.
     ga: f32,
     last: u32,
+    /// Σ w z and Σ w n behind the current contribution (normalised,
+    /// background 0) and ∂L/∂(Σ w z), ∂L/∂(Σ w n).
+    behind_z: f32,
+    behind_n: [f32; 3],
+    gz: f32,
+    gn: [f32; 3],
 }
 
-/// Per projected Gaussian: ∂L/∂(x, y, conic a, b, c, opacity, r, g, b).
-type Screen = [f32; 9];
+/// Length of the per-Gaussian screen gradient: ∂L/∂(x, y, conic a, b, c,
+/// opacity, r, g, b), then, with auxiliary gradients, ∂L/∂(z, n_x, n_y, n_z).
+const SCREEN: usize = 9;
+const SCREEN_AUX: usize = 13;
 
-/// Index, ∂L/∂(mean, scale, quaternion), ∂L/∂opacity, ∂L/∂SH.
-type PerGaussian = (usize, [f64; 10], f32, [[f32; 3]; 16]);
+/// Index, ∂L/∂(mean, scale, quaternion), ∂L/∂opacity, ∂L/∂SH, ∂L/∂xy.
+type PerGaussian = (usize, [f64; 10], f32, [[f32; 3]; 16], [f32; 2]);
 
 /// Gradient of the loss with respect to `g`, given ∂L/∂rgb per pixel
-/// (row-major, `width × height`) and optionally ∂L/∂alpha.
+/// (row-major, `width × height`) and optionally ∂L/∂alpha. Same as
+/// [`backward_aux`] with only the alpha gradient.
 pub fn backward(
     g: &Gaussians3,
     cam: &Camera,
@@ -71,16 +142,63 @@ pub fn backward(
     d_rgb: &[[f32; 3]],
     d_alpha: Option<&[f32]>,
 ) -> GaussianGrads {
+    let aux = AuxGrads {
+        alpha: d_alpha,
+        ..Default::default()
+    };
+    backward_aux(g, cam, s, state, d_rgb, &aux)
+}
+
+/// Gradient of the loss with respect to `g` (and the projected means),
+/// given ∂L/∂rgb per pixel (row-major, `width × height`) and the auxiliary
+/// outputs' gradients `aux`. Deterministic for any thread count.
+pub fn backward_aux(
+    g: &Gaussians3,
+    cam: &Camera,
+    s: &RasterSettings,
+    state: &RasterState,
+    d_rgb: &[[f32; 3]],
+    aux: &AuxGrads,
+) -> GaussianGrads {
     let (w, h) = (cam.width as usize, cam.height as usize);
     assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
+    for len in [
+        aux.alpha.map(<[f32]>::len),
+        aux.depth.map(<[f32]>::len),
+        aux.normal.map(<[[f32; 3]]>::len),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        assert_eq!(len, w * h, "one auxiliary gradient per pixel");
+    }
+    if aux.depth.is_some() || aux.normal.is_some() {
+        let screen = screen_grads::<SCREEN_AUX>(s, state, d_rgb, aux, w, h);
+        through_projection(g, cam, s, state, &screen)
+    } else {
+        let screen = screen_grads::<SCREEN>(s, state, d_rgb, aux, w, h);
+        through_projection(g, cam, s, state, &screen)
+    }
+}
+
+/// Stage 1: per projected Gaussian, ∂L/∂ its screen quantities (K =
+/// [`SCREEN`], or [`SCREEN_AUX`] to include depth and normal).
+fn screen_grads<const K: usize>(
+    s: &RasterSettings,
+    state: &RasterState,
+    d_rgb: &[[f32; 3]],
+    aux: &AuxGrads,
+    w: usize,
+    h: usize,
+) -> Vec<[f64; K]> {
+    let geo = K > SCREEN;
     let tw = state.tiles.tiles_x;
     let proj = &state.proj;
-    // 1. per tile, per list entry
-    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.len())
+    let tile_grads: Vec<Vec<[f32; K]>> = (0..state.tiles.len())
         .into_par_iter()
         .map(|ti| {
             let list = state.tiles.list(ti);
-            let mut acc = vec![[0.0f32; 9]; list.len()];
+            let mut acc = vec![[0.0f32; K]; list.len()];
             let (tx, ty) = (ti % tw, ti / tw);
             let (x0, y0) = (tx * TILE, ty * TILE);
             // per-pixel state of the backward walk
@@ -89,14 +207,27 @@ pub fn backward(
             for (x, y) in tile_pixels(ti, tw, w, h) {
                 let o = y * w + x;
                 max_last = max_last.max(state.last[o]);
-                px_state[(y - y0) * TILE + (x - x0)] = PixelBack {
+                let mut b = PixelBack {
                     t: state.final_t[o],
                     t_final: state.final_t[o],
                     behind: s.background,
                     gc: d_rgb[o],
-                    ga: d_alpha.map_or(0.0, |a| a[o]),
+                    ga: aux.alpha.map_or(0.0, |a| a[o]),
                     last: state.last[o],
+                    ..Default::default()
                 };
+                if geo {
+                    let ws = state.weight_sum[o];
+                    if let (Some(dd), true) = (aux.depth, ws > 0.0) {
+                        // D = S / W: ∂L/∂S = g/W, ∂L/∂W = −g·D/W
+                        b.gz = dd[o] / ws;
+                        b.ga -= dd[o] * state.expected_depth[o] / ws;
+                    }
+                    if let Some(dn) = aux.normal {
+                        b.gn = dn[o];
+                    }
+                }
+                px_state[(y - y0) * TILE + (x - x0)] = b;
             }
             // Gaussian-major, back to front: each pixel still walks its own
             // contributions in reverse list order
@@ -105,7 +236,7 @@ pub fn backward(
                 let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
                     continue;
                 };
-                let mut e = [0.0f32; 9];
+                let mut e = [0.0f32; K];
                 for y in ya..=yb {
                     let py = y as f32 + 0.5;
                     let dy = p.xy[1] - py;
@@ -135,6 +266,16 @@ pub fn backward(
                             d_a += b.gc[k] * (p.rgb[k] - b.behind[k]) * b.t;
                             b.behind[k] = alpha * p.rgb[k] + (1.0 - alpha) * b.behind[k];
                         }
+                        if geo {
+                            e[SCREEN] += b.gz * wgt;
+                            d_a += b.gz * (p.depth - b.behind_z) * b.t;
+                            b.behind_z = alpha * p.depth + (1.0 - alpha) * b.behind_z;
+                            for k in 0..3 {
+                                e[SCREEN + 1 + k] += b.gn[k] * wgt;
+                                d_a += b.gn[k] * (p.normal[k] - b.behind_n[k]) * b.t;
+                                b.behind_n[k] = alpha * p.normal[k] + (1.0 - alpha) * b.behind_n[k];
+                            }
+                        }
                         d_a += b.ga * b.t_final / (1.0 - alpha);
                         if raw >= 0.99 {
                             continue;
@@ -153,8 +294,17 @@ pub fn backward(
             acc
         })
         .collect();
-    let screen = state.tiles.gather(&tile_grads);
-    // 2. per Gaussian, through the projection
+    state.tiles.gather(&tile_grads)
+}
+
+/// Stage 2: the screen gradients through each Gaussian's projection.
+fn through_projection<const K: usize>(
+    g: &Gaussians3,
+    cam: &Camera,
+    s: &RasterSettings,
+    state: &RasterState,
+    screen: &[[f64; K]],
+) -> GaussianGrads {
     let n = g.len();
     let nc = coeff_count(g.sh_degree);
     let mut out = GaussianGrads {
@@ -163,10 +313,12 @@ pub fn backward(
         rotations: vec![[0.0; 4]; n],
         opacities: vec![0.0; n],
         sh: vec![[0.0; 3]; n * nc],
+        means2d: vec![[0.0; 2]; n],
     };
     let rows = rotation_rows(cam);
     let center = cam.center();
-    let per: Vec<PerGaussian> = proj
+    let per: Vec<PerGaussian> = state
+        .proj
         .par_iter()
         .zip(screen.par_iter())
         .map(|(p, d)| {
@@ -180,20 +332,21 @@ pub fn backward(
             let mut grad = [0.0f64; 10];
             let mut dsh = [[0.0f32; 3]; 16];
             if let Some(pt) = project_t(mean, scale, quat, None, g.sh_degree, cam, &rows, s) {
-                let outs = [
-                    (pt.xy[0], d[0]),
-                    (pt.xy[1], d[1]),
-                    (pt.conic[0], d[2]),
-                    (pt.conic[1], d[3]),
-                    (pt.conic[2], d[4]),
-                ];
                 let mut add = |v: &Dual<10>, gv: f64| {
                     for (gk, dk) in grad.iter_mut().zip(v.d) {
                         *gk += dk * gv;
                     }
                 };
-                for (v, gv) in outs {
-                    add(&v, gv);
+                add(&pt.xy[0], d[0]);
+                add(&pt.xy[1], d[1]);
+                for k in 0..3 {
+                    add(&pt.conic[k], d[2 + k]);
+                }
+                if K > SCREEN {
+                    add(&pt.depth, d[SCREEN]);
+                    for k in 0..3 {
+                        add(&pt.normal[k], d[SCREEN + 1 + k]);
+                    }
                 }
                 // colour: depends on the mean only, through the view direction
                 let m3: [Dual<3>; 3] = std::array::from_fn(|k| Dual::var(g.means[i][k] as f64, k));
@@ -217,15 +370,16 @@ pub fn backward(
                     }
                 }
             }
-            (i, grad, d[5] as f32, dsh)
+            (i, grad, d[5] as f32, dsh, [d[0] as f32, d[1] as f32])
         })
         .collect();
-    for (i, grad, dop, dsh) in per {
+    for (i, grad, dop, dsh, dxy) in per {
         out.means[i] = std::array::from_fn(|k| grad[k] as f32);
         out.scales[i] = std::array::from_fn(|k| grad[3 + k] as f32);
         out.rotations[i] = std::array::from_fn(|k| grad[6 + k] as f32);
         out.opacities[i] = dop;
         out.sh[i * nc..(i + 1) * nc].copy_from_slice(&dsh[..nc]);
+        out.means2d[i] = dxy;
     }
     out
 }
@@ -233,7 +387,7 @@ pub fn backward(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gaussian::rasterize;
+    use crate::gaussian::{RenderOutput, rasterize};
     use crate::testutil::{Lcg, check_gradient, linear_loss, random_sh, test_camera};
 
     /// A scene whose image is smooth in every parameter: a few large
@@ -343,5 +497,238 @@ mod tests {
                 })
         };
         assert_eq!(run(1), run(3));
+        // with depth and normal gradients too
+        let (wd, wn) = aux_weights(48 * 40, 6);
+        let run_aux = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool")
+                .install(|| {
+                    let (_, st) = rasterize(&g, &cam, &s);
+                    let aux = AuxGrads {
+                        alpha: Some(&wa),
+                        depth: Some(&wd),
+                        normal: Some(&wn),
+                    };
+                    backward_aux(&g, &cam, &s, &st, &wr, &aux)
+                })
+        };
+        assert_eq!(run_aux(1), run_aux(3));
+        // zero depth and normal gradients: the same as the plain backward
+        let zd = vec![0.0f32; 48 * 40];
+        let zn = vec![[0.0f32; 3]; 48 * 40];
+        let (_, st) = rasterize(&g, &cam, &s);
+        let aux = AuxGrads {
+            alpha: Some(&wa),
+            depth: Some(&zd),
+            normal: Some(&zn),
+        };
+        assert_eq!(
+            backward_aux(&g, &cam, &s, &st, &wr, &aux),
+            backward(&g, &cam, &s, &st, &wr, Some(&wa))
+        );
+    }
+
+    /// Random weights in [−1, 1] for a linear loss over the expected depth
+    /// and the accumulated normal.
+    fn aux_weights(pixels: usize, seed: u64) -> (Vec<f32>, Vec<[f32; 3]>) {
+        let mut r = Lcg(seed);
+        let wd = (0..pixels).map(|_| r.range(-1.0, 1.0)).collect();
+        let wn = (0..pixels)
+            .map(|_| [r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)])
+            .collect();
+        (wd, wn)
+    }
+
+    /// Σ w·rgb + Σ v·alpha + Σ u·expected depth + Σ q·normal_sum, in f64.
+    fn eval_full(
+        img: &RenderOutput,
+        (wr, wa): (&[[f32; 3]], &[f32]),
+        (wd, wn): (&[f32], &[[f32; 3]]),
+    ) -> f64 {
+        let mut l = crate::testutil::eval_linear(&img.rgb, &img.alpha, wr, wa);
+        for i in 0..img.rgb.len() {
+            l += img.expected_depth[i] as f64 * wd[i] as f64;
+            for (n, q) in img.normal_sum[i].iter().zip(wn[i]) {
+                l += *n as f64 * q as f64;
+            }
+        }
+        l
+    }
+
+    /// The depth and normal gradients, with the colour and alpha ones, on
+    /// the smooth scenes of [`gradients_match_finite_differences`] against
+    /// central differences of L = Σ w·rgb + Σ v·alpha + Σ u·D + Σ q·N with
+    /// random weights (D expected depth, N = Σ w n). Same tolerance as
+    /// there ([`check_gradient`]: 2% relative, or 3e-5/h absolute for
+    /// entries near zero): the depth term adds values near 5 per pixel,
+    /// whose f32 rounding (≈ 3e-7 each, random in sign) sums to about 1e-5
+    /// over the 1920 pixels, the noise level the floor is made for. The
+    /// scales (4–7, 4–7, 1–3) keep the third axis the shortest under every
+    /// step, so the normal's axis choice does not flip. Then ∂L/∂(projected
+    /// x, y) ([`GaussianGrads::means2d`]) against central differences in
+    /// which the projected means themselves are moved (h = 0.05 px) and the
+    /// projected Gaussians re-blended.
+    #[test]
+    fn aux_gradients_match_finite_differences() {
+        use crate::gaussian::{Projected, blend_projected, render};
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings {
+            background: [0.2, 0.3, 0.1],
+            ..Default::default()
+        };
+        for seed in [1u64, 2, 3] {
+            let g = smooth_scene(seed);
+            let (wr, wa) = linear_loss(48 * 40, seed + 100);
+            let (wd, wn) = aux_weights(48 * 40, seed + 200);
+            let weights = ((&wr[..], &wa[..]), (&wd[..], &wn[..]));
+            let loss = |g: &Gaussians3| eval_full(&render(g, &cam, &s), weights.0, weights.1);
+            let (img, state) = rasterize(&g, &cam, &s);
+            assert!(img.count.iter().all(|&c| c == 6));
+            let aux = AuxGrads {
+                alpha: Some(&wa),
+                depth: Some(&wd),
+                normal: Some(&wn),
+            };
+            let gr = backward_aux(&g, &cam, &s, &state, &wr, &aux);
+            let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
+            check_gradient("aux means", &flat(&gr.means), 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.means[k / 3][k % 3] += h as f32;
+                loss(&g2)
+            });
+            check_gradient("aux scales", &flat(&gr.scales), 5e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.scales[k / 3][k % 3] += h as f32;
+                loss(&g2)
+            });
+            let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
+            check_gradient("aux rotations", &rot, 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.rotations[k / 4][k % 4] += h as f32;
+                loss(&g2)
+            });
+            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
+            check_gradient("aux opacities", &op, 1e-3, |k, h| {
+                let mut g2 = g.clone();
+                g2.opacities[k] += h as f32;
+                loss(&g2)
+            });
+            // the projected means moved directly
+            let m2d: Vec<f64> = gr.means2d.iter().flatten().map(|&x| x as f64).collect();
+            check_gradient("means2d", &m2d, 5e-2, |k, h| {
+                let mut proj: Vec<Projected> = state.proj.clone();
+                let j = proj
+                    .iter()
+                    .position(|p| p.id as usize == k / 2)
+                    .expect("visible");
+                proj[j].xy[k % 2] += h as f32;
+                let (img, _) = blend_projected(proj, 48, 40, &s);
+                eval_full(&img, weights.0, weights.1)
+            });
+        }
+    }
+
+    /// Depth and normal separately (each alone in the loss), so that one
+    /// cannot hide an error in the other behind the colour terms.
+    #[test]
+    fn depth_and_normal_gradients_alone() {
+        use crate::gaussian::{RenderOutput, render};
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings::default();
+        let g = smooth_scene(4);
+        let zero_rgb = vec![[0.0f32; 3]; 48 * 40];
+        let zero_a = vec![0.0f32; 48 * 40];
+        let zero_n = vec![[0.0f32; 3]; 48 * 40];
+        let (wd, wn) = aux_weights(48 * 40, 11);
+        let (_, state) = rasterize(&g, &cam, &s);
+        for (name, depth, normal) in [
+            ("depth", &wd[..], &zero_n[..]),
+            ("normal", &zero_a[..], &wn[..]),
+        ] {
+            let loss = |g: &Gaussians3| {
+                let img: RenderOutput = render(g, &cam, &s);
+                eval_full(&img, (&zero_rgb, &zero_a), (depth, normal))
+            };
+            let aux = AuxGrads {
+                alpha: None,
+                depth: Some(depth),
+                normal: Some(normal),
+            };
+            let gr = backward_aux(&g, &cam, &s, &state, &zero_rgb, &aux);
+            let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
+            check_gradient(&format!("{name}: means"), &flat(&gr.means), 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.means[k / 3][k % 3] += h as f32;
+                loss(&g2)
+            });
+            check_gradient(
+                &format!("{name}: scales"),
+                &flat(&gr.scales),
+                5e-2,
+                |k, h| {
+                    let mut g2 = g.clone();
+                    g2.scales[k / 3][k % 3] += h as f32;
+                    loss(&g2)
+                },
+            );
+            let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
+            check_gradient(&format!("{name}: rotations"), &rot, 1e-2, |k, h| {
+                let mut g2 = g.clone();
+                g2.rotations[k / 4][k % 4] += h as f32;
+                loss(&g2)
+            });
+            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
+            check_gradient(&format!("{name}: opacities"), &op, 1e-3, |k, h| {
+                let mut g2 = g.clone();
+                g2.opacities[k] += h as f32;
+                loss(&g2)
+            });
+        }
+    }
+
+    /// The NDC conversion is 3DGS's: x·W/2, y·H/2.
+    #[test]
+    fn means2d_ndc_scales_by_half_the_image() {
+        let gr = GaussianGrads {
+            means2d: vec![[1.0, -2.0], [0.0, 0.5]],
+            ..Default::default()
+        };
+        assert_eq!(gr.means2d_ndc(100, 50), vec![[50.0, -50.0], [0.0, 12.5]]);
+    }
+
+    /// Radii: the projection's radius for the visible Gaussians, 0 for one
+    /// behind the camera and one far off screen; the mean gradient of the
+    /// culled ones is zero.
+    #[test]
+    fn radii_of_the_visible_set() {
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings::default();
+        let mut g = smooth_scene(5);
+        g.means[1] = [0.0, 0.0, -3.0];
+        g.means[4] = [500.0, 0.0, 3.0];
+        let (_, st) = rasterize(&g, &cam, &s);
+        let radii = st.radii(g.len(), 48, 40);
+        for (i, &r) in radii.iter().enumerate() {
+            if i == 1 || i == 4 {
+                assert_eq!(r, 0.0, "{i}");
+            } else {
+                let p = st
+                    .proj
+                    .iter()
+                    .find(|p| p.id as usize == i)
+                    .expect("projected");
+                assert_eq!(r, p.radius);
+                assert!(r > 0.0);
+            }
+        }
+        let vis: Vec<usize> = st.visible_radii(48, 40).map(|(i, _)| i).collect();
+        assert_eq!(vis.len(), 4);
+        let (wr, _) = linear_loss(48 * 40, 1);
+        let gr = backward(&g, &cam, &s, &st, &wr, None);
+        assert_eq!(gr.means2d[1], [0.0; 2]);
+        assert_eq!(gr.means2d[4], [0.0; 2]);
+        assert!(gr.means2d[0] != [0.0; 2]);
     }
 }

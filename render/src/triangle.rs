@@ -24,7 +24,9 @@
 //! φ = max L_i; window I = (φ/φ(s))^σ; α = min(0.99, o·I); skipped when
 //! α < 1/255; the pixel ends, without this contribution, when T would fall
 //! below 1e-4. Outputs as [`crate::gaussian::RenderOutput`]: depth and normal
-//! are the triangle's centroid depth and camera-facing face normal; the
+//! are the triangle's centroid depth and camera-facing unit face normal
+//! (blended into the expected depth Σ w z / Σ w, the accumulated normal
+//! Σ w n and its normalisation); the
 //! median depth is the depth of the last contribution made while the
 //! transmittance before it was above 0.5 (so also where the final alpha
 //! stays below 0.5), 0 only where nothing contributed.
@@ -105,8 +107,11 @@ pub(crate) struct ProjectedTriT<T> {
     pub phi_s: T,
     /// SH colour + 0.5 before the clamp.
     pub rgb: [T; 3],
-    pub depth: f64,
-    pub normal: [f64; 3],
+    /// View z of the 3-D centroid.
+    pub depth: T,
+    /// Camera-space unit face normal facing the camera (the flip is taken
+    /// on the values: no derivative).
+    pub normal: [T; 3],
     /// Inclusive tile rectangle (x0, y0, x1, y1), never empty.
     pub tiles: [u32; 4],
 }
@@ -136,15 +141,17 @@ pub(crate) fn project_tri_t<T: Real>(
     if z.is_nan() || z <= s.near {
         return None;
     }
-    // face normal, for culling and the normal map
-    let e1: [f64; 3] = std::array::from_fn(|i| view[1][i].val() - view[0][i].val());
-    let e2: [f64; 3] = std::array::from_fn(|i| view[2][i].val() - view[0][i].val());
+    // face normal, for culling and the normal map; its length is clamped
+    // at 1e-4 as the reference does (a constant there)
+    let e1: [T; 3] = std::array::from_fn(|i| view[1][i] - view[0][i]);
+    let e2: [T; 3] = std::array::from_fn(|i| view[2][i] - view[0][i]);
     let nrm = cross3(e1, e2);
-    let nl = dot3(nrm, nrm).sqrt().max(1e-4);
+    let nl = dot3(nrm, nrm).sqrt();
+    let nl = if nl.val() < 1e-4 { T::cst(1e-4) } else { nl };
     let mut normal = nrm.map(|v| v / nl);
     let cv = c3.map(|v| v.val());
     let cl = dot3(cv, cv).sqrt();
-    let cos = dot3(normal, cv) / cl;
+    let cos = dot3(normal.map(|v| v.val()), cv) / cl;
     if cos > 0.0 {
         normal = normal.map(|v| -v);
     }
@@ -192,9 +199,45 @@ pub(crate) fn project_tri_t<T: Real>(
     if !(1.0..=1600.0).contains(&big_r) || phi_s.val().is_nan() || phi_s.val() > -1.0 {
         return None;
     }
-    // tile box of the region where o·I ≥ 0.01: edges moved inward
-    let shrink = -phi_s.val() * (0.01 / opacity as f64).powf(1.0 / sigma as f64);
     let ev = edges.map(|e| e.map(|v| v.val()));
+    let bbox = tight_box(&ev, phi_s.val(), opacity, sigma)?;
+    // the official tile range (empty: culled), see `tile_rect_cuda`
+    let tiles = tile_rect_cuda(
+        bbox.map(|v| v as f32),
+        cam.width as usize,
+        cam.height as usize,
+    )?;
+    let world_c: [T; 3] =
+        std::array::from_fn(|i| (verts[0][i] + verts[1][i] + verts[2][i]) * third);
+    let rgb = sh_rgb(world_c, cam.center().to_array(), sh, sh_degree);
+    Some(ProjectedTriT {
+        edges,
+        phi_s,
+        rgb,
+        depth: c3[2],
+        normal,
+        tiles,
+    })
+}
+
+/// The tightened screen box of a projected triangle (Triangle Splatting's
+/// supplement, eq. 3; `forward.cu` step "tight tile box"), before tile
+/// rounding: (x0, y0, x1, y1) in pixels, `None` when no corner is left.
+///
+/// o·I(p) ≥ 0.01 ⇔ φ(p) ≤ φ(s)·(0.01/o)^(1/σ), i.e. every edge line
+/// L_i(p) = n_i·p + d_i (negative inside, `edges[i]` = (n_x, n_y, d)) moved
+/// inward by r·(0.01/o)^(1/σ), r = −φ(s) the inradius. The box bounds the
+/// pairwise intersections of consecutive moved lines; pairs with
+/// |det| < 1e-3 (almost parallel edges) are skipped as in the reference, so
+/// the sliver at such a corner can fall outside. The moved triangle lies in
+/// the original one, so the box never exceeds the vertex bounding box.
+pub(crate) fn tight_box(
+    edges: &[[f64; 3]; 3],
+    phi_s: f64,
+    opacity: f32,
+    sigma: f32,
+) -> Option<[f64; 4]> {
+    let shrink = -phi_s * (0.01 / opacity as f64).powf(1.0 / sigma as f64);
     let mut bbox = [
         f64::INFINITY,
         f64::INFINITY,
@@ -203,7 +246,7 @@ pub(crate) fn project_tri_t<T: Real>(
     ];
     let mut corners = 0;
     for i in 0..3 {
-        let (a, b) = (ev[i], ev[(i + 1) % 3]);
+        let (a, b) = (edges[i], edges[(i + 1) % 3]);
         let det = a[0] * b[1] - a[1] * b[0];
         if det.abs() < 1e-3 {
             continue;
@@ -219,26 +262,7 @@ pub(crate) fn project_tri_t<T: Real>(
         ];
         corners += 1;
     }
-    if corners == 0 {
-        return None;
-    }
-    // the official tile range (empty: culled), see `tile_rect_cuda`
-    let tiles = tile_rect_cuda(
-        bbox.map(|v| v as f32),
-        cam.width as usize,
-        cam.height as usize,
-    )?;
-    let world_c: [T; 3] =
-        std::array::from_fn(|i| (verts[0][i] + verts[1][i] + verts[2][i]) * third);
-    let rgb = sh_rgb(world_c, cam.center().to_array(), sh, sh_degree);
-    Some(ProjectedTriT {
-        edges,
-        phi_s,
-        rgb,
-        depth: z,
-        normal,
-        tiles,
-    })
+    (corners > 0).then_some(bbox)
 }
 
 fn project_tri(
@@ -292,13 +316,20 @@ pub(crate) fn window(p: &ProjectedTri, x: f32, y: f32) -> Option<(f32, usize, f3
     Some((ratio.powf(p.sigma), arg, phi))
 }
 
-/// What the backward pass needs from the forward pass.
+/// What the backward pass needs from the forward pass: the projected
+/// triangles, the tile lists and, per pixel, the final transmittance, the
+/// list position past the last blended contribution, the expected depth and
+/// the weight sum Σ w it was divided by.
 #[derive(Clone, Debug, Default)]
 pub struct TriangleState {
     pub proj: Vec<ProjectedTri>,
     pub tiles: TileLists,
     pub final_t: Vec<f32>,
     pub last: Vec<u32>,
+    /// Per pixel, [`RenderOutput::expected_depth`].
+    pub expected_depth: Vec<f32>,
+    /// Per pixel, Σ w (= 1 − T up to rounding), 0 where nothing was blended.
+    pub weight_sum: Vec<f32>,
 }
 
 /// Renders `t` from `cam`.
@@ -327,6 +358,7 @@ pub fn rasterize(
         expected_depth: vec![0.0; w * h],
         median_depth: vec![0.0; w * h],
         normal: vec![[0.0; 3]; w * h],
+        normal_sum: vec![[0.0; 3]; w * h],
         count: vec![0; w * h],
     };
     if tw == 0 || th == 0 {
@@ -335,6 +367,7 @@ pub fn rasterize(
     let tiles = TileLists::build(&proj, |p| Some(p.tiles), |p| p.depth, w, h);
     let mut final_t = vec![1.0f32; w * h];
     let mut lastv = vec![0u32; w * h];
+    let mut weight_sum = vec![0.0f32; w * h];
     render_tiles(
         tw,
         th,
@@ -351,9 +384,11 @@ pub fn rasterize(
             out.expected_depth[o] = px.expected_depth;
             out.median_depth[o] = px.median_depth;
             out.normal[o] = px.normal;
+            out.normal_sum[o] = px.normal_sum;
             out.count[o] = px.count;
             final_t[o] = px.final_t;
             lastv[o] = px.last;
+            weight_sum[o] = px.weight_sum;
         },
     );
     let state = TriangleState {
@@ -361,6 +396,8 @@ pub fn rasterize(
         tiles,
         final_t,
         last: lastv,
+        expected_depth: out.expected_depth.clone(),
+        weight_sum,
     };
     (out, state)
 }
@@ -372,6 +409,8 @@ struct Shaded {
     expected_depth: f32,
     median_depth: f32,
     normal: [f32; 3],
+    normal_sum: [f32; 3],
+    weight_sum: f32,
     count: u32,
     final_t: f32,
     last: u32,
@@ -419,6 +458,8 @@ fn shade(proj: &[ProjectedTri], list: &[u32], x: usize, y: usize, s: &RasterSett
         final_t: tr,
         last,
         median_depth: median,
+        normal_sum: nsum,
+        weight_sum: wsum,
         ..Default::default()
     };
     if wsum > 0.0 {
@@ -703,5 +744,126 @@ mod tests {
         );
         assert_eq!(small.count[0], 0);
         assert_eq!(small.median_depth[0], 0.0);
+    }
+
+    /// The tightened screen box (step 8 of the reference's preprocess, the
+    /// supplement's eq. 3), before tile rounding: for random triangles,
+    /// opacities in [0.01, 1] and σ from 0.01 to 5 (log-uniform), every
+    /// point whose influence o·I(p) is ≥ 0.01 (all pixel centres around the
+    /// triangle and a quarter-pixel grid, I evaluated in f64 from the same
+    /// edge lines) lies in the box, and the box lies in the bounding box of
+    /// the projected vertices (tolerance 1e-6 px, far below a pixel and
+    /// above the f64 rounding of intersecting lines some 100 px long).
+    /// Triangles with a corner under 1° are left out: there consecutive
+    /// edge normals can be within 1e-3 of parallel and the reference skips
+    /// that corner (see [`tight_box`]). At least one point of each region
+    /// is seen, so the test is not empty.
+    #[test]
+    fn tight_box_contains_the_influence_region() {
+        use crate::testutil::Lcg;
+        let cam = test_camera(96, 80, 80.0);
+        let rows = rotation_rows(&cam);
+        let s = RasterSettings::default();
+        let mut r = Lcg(17);
+        let (mut tested, mut seen) = (0, 0);
+        while tested < 300 {
+            let c = [r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(3.0, 6.0)];
+            let size = r.range(0.05, 1.5);
+            let verts: [[f64; 3]; 3] = std::array::from_fn(|_| {
+                [
+                    (c[0] + size * r.range(-1.0, 1.0)) as f64,
+                    (c[1] + size * r.range(-1.0, 1.0)) as f64,
+                    (c[2] + 0.5 * size * r.range(-1.0, 1.0)) as f64,
+                ]
+            });
+            let opacity = r.range(0.01, 1.0);
+            let sigma = (0.01f64.ln() + (500f64).ln() * r.next_f64()).exp() as f32;
+            let Some(p) =
+                project_tri_t::<f64>(verts, sigma, opacity, &[[0.0; 3]], 0, &cam, &rows, &s)
+            else {
+                continue;
+            };
+            // projected vertices (identity pose: view = world)
+            let pv = verts.map(|v| {
+                let iz = 1.0 / (v[2] + 1e-7);
+                [v[0] * iz * cam.fx + cam.cx, v[1] * iz * cam.fy + cam.cy]
+            });
+            let min_angle = (0..3)
+                .map(|i| {
+                    let (a, b, c) = (pv[i], pv[(i + 1) % 3], pv[(i + 2) % 3]);
+                    let (u, v) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
+                    let cos = (u[0] * v[0] + u[1] * v[1])
+                        / ((u[0] * u[0] + u[1] * u[1]).sqrt() * (v[0] * v[0] + v[1] * v[1]).sqrt());
+                    cos.clamp(-1.0, 1.0).acos().to_degrees()
+                })
+                .fold(180.0f64, f64::min);
+            if min_angle < 1.0 {
+                continue;
+            }
+            tested += 1;
+            let b = tight_box(&p.edges, p.phi_s, opacity, sigma).expect("a box");
+            let vb = [
+                pv.iter().map(|q| q[0]).fold(f64::INFINITY, f64::min),
+                pv.iter().map(|q| q[1]).fold(f64::INFINITY, f64::min),
+                pv.iter().map(|q| q[0]).fold(f64::NEG_INFINITY, f64::max),
+                pv.iter().map(|q| q[1]).fold(f64::NEG_INFINITY, f64::max),
+            ];
+            let eps = 1e-6;
+            assert!(
+                b[0] >= vb[0] - eps
+                    && b[1] >= vb[1] - eps
+                    && b[2] <= vb[2] + eps
+                    && b[3] <= vb[3] + eps,
+                "box {b:?} outside the vertex box {vb:?}"
+            );
+            let influence = |x: f64, y: f64| {
+                let phi = p
+                    .edges
+                    .iter()
+                    .map(|e| e[0] * x + e[1] * y + e[2])
+                    .fold(f64::NEG_INFINITY, f64::max);
+                if phi > 0.0 {
+                    0.0
+                } else {
+                    opacity as f64 * (phi / p.phi_s).powf(sigma as f64)
+                }
+            };
+            let check = |x: f64, y: f64| {
+                let hit = influence(x, y) >= 0.01;
+                if hit {
+                    assert!(
+                        x >= b[0] - eps && x <= b[2] + eps && y >= b[1] - eps && y <= b[3] + eps,
+                        "({x}, {y}) has o·I ≥ 0.01 outside the box {b:?} (o {opacity}, σ {sigma})"
+                    );
+                }
+                hit as usize
+            };
+            let (x0, y0) = ((vb[0] - 2.0).floor(), (vb[1] - 2.0).floor());
+            let (x1, y1) = ((vb[2] + 2.0).ceil(), (vb[3] + 2.0).ceil());
+            let (nx, ny) = (((x1 - x0) * 4.0) as usize, ((y1 - y0) * 4.0) as usize);
+            let before = seen;
+            for j in 0..=ny {
+                for i in 0..=nx {
+                    // quarter-pixel grid; every fourth point (offset 2) is a
+                    // pixel centre
+                    seen += check(x0 + i as f64 * 0.25, y0 + j as f64 * 0.25);
+                }
+            }
+            // the incenter has influence o ≥ 0.01
+            let inc = {
+                let (la, lb, lc) = (
+                    ((pv[1][0] - pv[2][0]).powi(2) + (pv[1][1] - pv[2][1]).powi(2)).sqrt(),
+                    ((pv[0][0] - pv[2][0]).powi(2) + (pv[0][1] - pv[2][1]).powi(2)).sqrt(),
+                    ((pv[0][0] - pv[1][0]).powi(2) + (pv[0][1] - pv[1][1]).powi(2)).sqrt(),
+                );
+                let per = la + lb + lc;
+                [
+                    (la * pv[0][0] + lb * pv[1][0] + lc * pv[2][0]) / per,
+                    (la * pv[0][1] + lb * pv[1][1] + lc * pv[2][1]) / per,
+                ]
+            };
+            seen += check(inc[0], inc[1]);
+            assert!(seen > before, "no point of the region seen");
+        }
     }
 }

@@ -1,22 +1,34 @@
 //! Backward pass of the triangle-splat rasteriser.
 //!
-//! Input: the [`TriangleState`] of a forward pass and ∂L/∂rgb (optionally
-//! ∂L/∂alpha) per pixel. Output: ∂L/∂ each parameter of [`Triangles3`]
-//! (vertices in world units, activated σ and opacity, SH coefficients).
+//! Input: the [`TriangleState`] of a forward pass and ∂L/∂rgb per pixel,
+//! optionally ([`AuxGrads`]) ∂L/∂alpha, ∂L/∂expected depth
+//! ([`crate::gaussian::RenderOutput::expected_depth`], D = Σ w z / Σ w) and
+//! ∂L/∂accumulated normal ([`crate::gaussian::RenderOutput::normal_sum`],
+//! N = Σ w n, camera space, not normalised), with w = α T the blend weights,
+//! z the view z of each triangle's 3-D centroid and n its camera-facing unit
+//! face normal. Output: ∂L/∂ each parameter of [`Triangles3`] (vertices in
+//! world units, activated σ and opacity, SH coefficients).
 //!
 //! Per pixel the blending is walked back to front (as for Gaussians); the
 //! window I = (φ/φ(s))^σ with φ = L_k(p) the largest edge value gives
 //! ∂I/∂σ = I·ln(φ/φ(s)), ∂I/∂φ = σI/φ, ∂I/∂φ(s) = −σI/φ(s), and
-//! ∂φ/∂(n_k, d_k) = (p, 1). Per triangle, the projection (vertices → edge
-//! lines, inradius, view-dependent colour) is re-run with [`Dual`] numbers
-//! over the 9 vertex coordinates. Clamped α or colour passes no gradient;
-//! depth and normal outputs are not differentiated.
+//! ∂φ/∂(n_k, d_k) = (p, 1). Depth and normal are blended like the colour
+//! (background 0); D = (Σ w z)/(Σ w) with ∂(Σ w)/∂α_i = T_final/(1 − α_i).
+//! Per triangle, the projection (vertices → edge lines, inradius,
+//! view-dependent colour, centroid depth, unit face normal) is re-run with
+//! [`Dual`] numbers over the 9 vertex coordinates; the normal's flip towards
+//! the camera and its length clamp (1e-4) are constants there. So the depth
+//! and normal gradients reach σ and opacity through the blend weights, and
+//! the vertices through the weights (edge lines, inradius) and through z
+//! and n. Clamped α or colour passes no gradient; the median depth and the
+//! normalised normal map are not differentiated.
 
 use rayon::prelude::*;
 
 use crate::Camera;
 use crate::dual::Dual;
 use crate::gaussian::{RasterSettings, rotation_rows};
+pub use crate::gaussian_grad::AuxGrads;
 use crate::sh::{basis, coeff_count};
 use crate::tiles::tile_pixels;
 use crate::triangle::{TriangleState, Triangles3, project_tri_t, window};
@@ -30,14 +42,17 @@ pub struct TriangleGrads {
     pub sh: Vec<[f32; 3]>,
 }
 
-/// ∂L/∂(edges 9, φ(s), σ, opacity, rgb 3) per projected triangle.
-type Screen = [f32; 15];
+/// Length of the per-triangle screen gradient ∂L/∂(edges 9, φ(s), σ,
+/// opacity, rgb 3), then, with depth or normal gradients, ∂L/∂(z, n 3).
+const SCREEN: usize = 15;
+const SCREEN_AUX: usize = 19;
 
 /// Index, ∂L/∂vertices, ∂L/∂σ, ∂L/∂opacity, ∂L/∂SH.
 type PerTriangle = (usize, [f64; 9], f32, f32, [[f32; 3]; 16]);
 
 /// Gradient of the loss with respect to `t`, given ∂L/∂rgb per pixel and
-/// optionally ∂L/∂alpha.
+/// optionally ∂L/∂alpha. Same as [`backward_aux`] with only the alpha
+/// gradient.
 pub fn backward(
     t: &Triangles3,
     cam: &Camera,
@@ -46,15 +61,64 @@ pub fn backward(
     d_rgb: &[[f32; 3]],
     d_alpha: Option<&[f32]>,
 ) -> TriangleGrads {
+    let aux = AuxGrads {
+        alpha: d_alpha,
+        ..Default::default()
+    };
+    backward_aux(t, cam, s, state, d_rgb, &aux)
+}
+
+/// Gradient of the loss with respect to `t`, given ∂L/∂rgb per pixel
+/// (row-major, `width × height`) and the auxiliary outputs' gradients
+/// `aux` (see the module docs for what they are taken with respect to).
+/// Deterministic for any thread count.
+pub fn backward_aux(
+    t: &Triangles3,
+    cam: &Camera,
+    s: &RasterSettings,
+    state: &TriangleState,
+    d_rgb: &[[f32; 3]],
+    aux: &AuxGrads,
+) -> TriangleGrads {
     let (w, h) = (cam.width as usize, cam.height as usize);
     assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
+    for len in [
+        aux.alpha.map(<[f32]>::len),
+        aux.depth.map(<[f32]>::len),
+        aux.normal.map(<[[f32; 3]]>::len),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        assert_eq!(len, w * h, "one auxiliary gradient per pixel");
+    }
+    if aux.depth.is_some() || aux.normal.is_some() {
+        let screen = screen_grads::<SCREEN_AUX>(s, state, d_rgb, aux, w, h);
+        through_projection(t, cam, s, state, &screen)
+    } else {
+        let screen = screen_grads::<SCREEN>(s, state, d_rgb, aux, w, h);
+        through_projection(t, cam, s, state, &screen)
+    }
+}
+
+/// Stage 1: per projected triangle, ∂L/∂ its screen quantities (K =
+/// [`SCREEN`], or [`SCREEN_AUX`] to include depth and normal).
+fn screen_grads<const K: usize>(
+    s: &RasterSettings,
+    state: &TriangleState,
+    d_rgb: &[[f32; 3]],
+    aux: &AuxGrads,
+    w: usize,
+    h: usize,
+) -> Vec<[f64; K]> {
+    let geo = K > SCREEN;
     let tw = state.tiles.tiles_x;
     let proj = &state.proj;
-    let tile_grads: Vec<Vec<Screen>> = (0..state.tiles.len())
+    let tile_grads: Vec<Vec<[f32; K]>> = (0..state.tiles.len())
         .into_par_iter()
         .map(|ti| {
             let list = state.tiles.list(ti);
-            let mut acc = vec![[0.0f32; 15]; list.len()];
+            let mut acc = vec![[0.0f32; K]; list.len()];
             for (x, y) in tile_pixels(ti, tw, w, h) {
                 let o = y * w + x;
                 let last = state.last[o] as usize;
@@ -62,7 +126,21 @@ pub fn backward(
                     continue;
                 }
                 let gc = d_rgb[o];
-                let ga = d_alpha.map_or(0.0, |a| a[o]);
+                let mut ga = aux.alpha.map_or(0.0, |a| a[o]);
+                // ∂L/∂(Σ w z), ∂L/∂(Σ w n) and what is behind (background 0)
+                let (mut gz, mut gn) = (0.0f32, [0.0f32; 3]);
+                let (mut behind_z, mut behind_n) = (0.0f32, [0.0f32; 3]);
+                if geo {
+                    let ws = state.weight_sum[o];
+                    if let (Some(dd), true) = (aux.depth, ws > 0.0) {
+                        // D = S / W: ∂L/∂S = g/W, ∂L/∂W = −g·D/W
+                        gz = dd[o] / ws;
+                        ga -= dd[o] * state.expected_depth[o] / ws;
+                    }
+                    if let Some(dn) = aux.normal {
+                        gn = dn[o];
+                    }
+                }
                 let t_final = state.final_t[o];
                 let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
                 let mut tr = t_final;
@@ -86,6 +164,16 @@ pub fn backward(
                         d_a += gc[k] * (p.rgb[k] - behind[k]) * tr;
                         behind[k] = alpha * p.rgb[k] + (1.0 - alpha) * behind[k];
                     }
+                    if geo {
+                        e[SCREEN] += gz * wgt;
+                        d_a += gz * (p.depth - behind_z) * tr;
+                        behind_z = alpha * p.depth + (1.0 - alpha) * behind_z;
+                        for k in 0..3 {
+                            e[SCREEN + 1 + k] += gn[k] * wgt;
+                            d_a += gn[k] * (p.normal[k] - behind_n[k]) * tr;
+                            behind_n[k] = alpha * p.normal[k] + (1.0 - alpha) * behind_n[k];
+                        }
+                    }
                     d_a += ga * t_final / (1.0 - alpha);
                     if raw >= 0.99 {
                         continue;
@@ -105,7 +193,17 @@ pub fn backward(
             acc
         })
         .collect();
-    let screen = state.tiles.gather(&tile_grads);
+    state.tiles.gather(&tile_grads)
+}
+
+/// Stage 2: the screen gradients through each triangle's projection.
+fn through_projection<const K: usize>(
+    t: &Triangles3,
+    cam: &Camera,
+    s: &RasterSettings,
+    state: &TriangleState,
+    screen: &[[f64; K]],
+) -> TriangleGrads {
     let n = t.len();
     let nc = coeff_count(t.sh_degree);
     let mut out = TriangleGrads {
@@ -116,7 +214,8 @@ pub fn backward(
     };
     let rows = rotation_rows(cam);
     let center = cam.center();
-    let per: Vec<PerTriangle> = proj
+    let per: Vec<PerTriangle> = state
+        .proj
         .par_iter()
         .zip(screen.par_iter())
         .map(|(p, d)| {
@@ -148,6 +247,12 @@ pub fn backward(
                     }
                 }
                 add(&pt.phi_s, d[9]);
+                if K > SCREEN {
+                    add(&pt.depth, d[SCREEN]);
+                    for k in 0..3 {
+                        add(&pt.normal[k], d[SCREEN + 1 + k]);
+                    }
+                }
                 let c: [f32; 3] = std::array::from_fn(|k| {
                     ((t.vertices[i][0][k] as f64
                         + t.vertices[i][1][k] as f64
@@ -182,6 +287,7 @@ pub fn backward(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gaussian::RenderOutput;
     use crate::testutil::{Lcg, check_gradient, eval_linear, linear_loss, random_sh, test_camera};
     use crate::triangle::{rasterize, render};
 
@@ -281,5 +387,155 @@ mod tests {
                 loss(&t2)
             });
         }
+    }
+
+    /// Random weights in [−1, 1] for the expected depth and Σ w n.
+    fn aux_weights(pixels: usize, seed: u64) -> (Vec<f32>, Vec<[f32; 3]>) {
+        let mut r = Lcg(seed);
+        let wd = (0..pixels).map(|_| r.range(-1.0, 1.0)).collect();
+        let wn = (0..pixels)
+            .map(|_| [r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)])
+            .collect();
+        (wd, wn)
+    }
+
+    /// Σ w·rgb + Σ v·alpha + Σ u·expected depth + Σ q·normal_sum, in f64.
+    fn eval_full(
+        img: &RenderOutput,
+        (wr, wa): (&[[f32; 3]], &[f32]),
+        (wd, wn): (&[f32], &[[f32; 3]]),
+    ) -> f64 {
+        let mut l = eval_linear(&img.rgb, &img.alpha, wr, wa);
+        for i in 0..img.rgb.len() {
+            l += img.expected_depth[i] as f64 * wd[i] as f64;
+            for (n, q) in img.normal_sum[i].iter().zip(wn[i]) {
+                l += *n as f64 * q as f64;
+            }
+        }
+        l
+    }
+
+    /// Checks vertices, σ and opacity against central differences of `loss`
+    /// (steps and tolerance as in [`gradients_match_finite_differences`]).
+    fn check_geometry(
+        name: &str,
+        t: &Triangles3,
+        gr: &TriangleGrads,
+        loss: impl Fn(&Triangles3) -> f64,
+    ) {
+        let sig: Vec<f64> = gr.sigmas.iter().map(|&x| x as f64).collect();
+        check_gradient(&format!("{name}: sigmas"), &sig, 1e-2, |k, h| {
+            let mut t2 = t.clone();
+            t2.sigmas[k] += h as f32;
+            loss(&t2)
+        });
+        let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
+        check_gradient(&format!("{name}: opacities"), &op, 1e-3, |k, h| {
+            let mut t2 = t.clone();
+            t2.opacities[k] += h as f32;
+            loss(&t2)
+        });
+        let verts: Vec<f64> = gr
+            .vertices
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|&x| x as f64)
+            .collect();
+        check_gradient(&format!("{name}: vertices"), &verts, 1e-2, |k, h| {
+            let mut t2 = t.clone();
+            t2.vertices[k / 9][(k / 3) % 3][k % 3] += h as f32;
+            loss(&t2)
+        });
+    }
+
+    /// Depth and normal gradients on the smooth scenes, against central
+    /// differences of L = Σ w·rgb + Σ v·alpha + Σ u·D + Σ q·N (random
+    /// weights; D expected depth, N = Σ w n), and of the depth term alone
+    /// and the normal term alone. Tolerance of [`check_gradient`] (2%
+    /// relative, or 3e-5/h absolute near zero): the depth term adds values
+    /// near 5 per pixel whose f32 rounding sums to about 1e-5 over the 1920
+    /// pixels, the noise the floor is made for.
+    #[test]
+    fn aux_gradients_match_finite_differences() {
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings {
+            background: [0.1, 0.2, 0.3],
+            ..Default::default()
+        };
+        let zero_rgb = vec![[0.0f32; 3]; 48 * 40];
+        let zero_a = vec![0.0f32; 48 * 40];
+        let zero_n = vec![[0.0f32; 3]; 48 * 40];
+        for seed in [1u64, 2, 3] {
+            let t = smooth_scene(seed);
+            let (wr, wa) = linear_loss(48 * 40, seed + 50);
+            let (wd, wn) = aux_weights(48 * 40, seed + 70);
+            let (img, state) = rasterize(&t, &cam, &s);
+            assert!(img.count.iter().all(|&c| c == 5));
+            // (name, ∂L/∂rgb, ∂L/∂alpha, ∂L/∂depth, ∂L/∂normal_sum)
+            type Case<'a> = (
+                &'a str,
+                &'a [[f32; 3]],
+                &'a [f32],
+                &'a [f32],
+                &'a [[f32; 3]],
+            );
+            let cases: [Case; 3] = [
+                ("all", &wr, &wa, &wd, &wn),
+                ("depth", &zero_rgb, &zero_a, &wd, &zero_n),
+                ("normal", &zero_rgb, &zero_a, &zero_a, &wn),
+            ];
+            for (name, cr, ca, cd, cn) in cases {
+                let aux = AuxGrads {
+                    alpha: Some(ca),
+                    depth: Some(cd),
+                    normal: Some(cn),
+                };
+                let gr = backward_aux(&t, &cam, &s, &state, cr, &aux);
+                check_geometry(name, &t, &gr, |t2| {
+                    eval_full(&render(t2, &cam, &s), (cr, ca), (cd, cn))
+                });
+            }
+        }
+    }
+
+    /// Deterministic for any thread count, with and without the auxiliary
+    /// gradients; zero depth and normal gradients give the plain backward.
+    #[test]
+    fn backward_is_deterministic_across_threads() {
+        let cam = test_camera(48, 40, 60.0);
+        let s = RasterSettings::default();
+        let t = smooth_scene(7);
+        let (wr, wa) = linear_loss(48 * 40, 3);
+        let (wd, wn) = aux_weights(48 * 40, 4);
+        let run = |threads: usize, geo: bool| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool")
+                .install(|| {
+                    let (_, st) = rasterize(&t, &cam, &s);
+                    let aux = AuxGrads {
+                        alpha: Some(&wa),
+                        depth: geo.then_some(&wd[..]),
+                        normal: geo.then_some(&wn[..]),
+                    };
+                    backward_aux(&t, &cam, &s, &st, &wr, &aux)
+                })
+        };
+        assert_eq!(run(1, false), run(3, false));
+        assert_eq!(run(1, true), run(3, true));
+        let zd = vec![0.0f32; 48 * 40];
+        let zn = vec![[0.0f32; 3]; 48 * 40];
+        let (_, st) = rasterize(&t, &cam, &s);
+        let aux = AuxGrads {
+            alpha: Some(&wa),
+            depth: Some(&zd),
+            normal: Some(&zn),
+        };
+        assert_eq!(
+            backward_aux(&t, &cam, &s, &st, &wr, &aux),
+            backward(&t, &cam, &s, &st, &wr, Some(&wa))
+        );
     }
 }

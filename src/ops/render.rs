@@ -198,6 +198,8 @@ pub fn shade_mesh(
         expected_depth: z.depth.clone(),
         median_depth: z.depth.clone(),
         normal: z.normal.clone(),
+        // one opaque layer of weight 1: Σ w n is the normal (zero off the mesh)
+        normal_sum: z.normal.clone(),
         count: vec![0; n],
     };
     for i in 0..n {
