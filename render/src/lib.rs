@@ -9,10 +9,13 @@
 //!   binning of [`tiles`] and are deterministic for any thread count;
 //! - [`dual`]: forward-mode dual numbers that give the projections' exact
 //!   Jacobians from the same generic code as the forward pass;
+//! - [`depth_normal`]: 2DGS's normals from depth and the depth–normal
+//!   consistency loss with its gradients;
 //! - [`loss`] (L1, SSIM with gradient, PSNR) and [`optim`] (Adam with
 //!   per-group schedules) for photometric training.
 
 pub mod camera;
+pub mod depth_normal;
 pub mod dual;
 pub mod gaussian;
 pub mod gaussian_grad;

@@ -5,6 +5,8 @@
 //! - [`photometric`]: the photometric loss (0.8·L1 + 0.2·D-SSIM, masks) and
 //!   the held-out evaluation (PSNR / SSIM) every loop shares;
 //! - [`schedule`]: the seeded view order and the train / test split;
+//! - [`sugar`]: SuGaR's coarse-stage regularisers (opacity entropy,
+//!   density and SDF regularisers on sampled points) with raw gradients;
 //! - [`checkpoint`]: optimiser state on disk, so `--resume` continues bit
 //!   for bit.
 
@@ -13,4 +15,5 @@ pub mod groups;
 pub mod photometric;
 pub mod refine;
 pub mod schedule;
+pub mod sugar;
 pub mod triangles;
