@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 
 use crate::ops::{
     bake_texture, bind_gaussians, chamfer, clean, decimate, demo, export_off, info, poisson,
-    prune_triangles, refine, render, splat2points, tsdf_fuse,
+    prune_triangles, refine, render, splat2points, train, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -54,6 +54,8 @@ pub enum Command {
     Refine(refine::RefineArgs),
     /// Bake a Gaussian scene's colours into a texture on a mesh (SuGaR's textured OBJ export).
     BakeTexture(bake_texture::BakeTextureArgs),
+    /// Train Triangle Splatting or 3DGS / SuGaR-regularised Gaussians from photos, on the CPU.
+    Train(train::TrainArgs),
     /// Run the triangle tools end to end on a generated scene.
     Demo(demo::DemoArgs),
 }
@@ -75,6 +77,7 @@ pub fn splatkit_main() -> ! {
         Command::BindGaussians(a) => bind_gaussians::run(a),
         Command::Refine(a) => refine::run(a),
         Command::BakeTexture(a) => bake_texture::run(a),
+        Command::Train(a) => train::run(a),
         Command::Demo(a) => demo::run(a),
     })
 }
@@ -184,4 +187,11 @@ single_command!(
     bake_texture::BakeTextureArgs,
     bake_texture::run,
     "Bake a Gaussian scene's colours into a texture on a mesh (SuGaR's textured OBJ export)."
+);
+single_command!(
+    train_main,
+    "train",
+    train::TrainArgs,
+    train::run,
+    "Train Triangle Splatting or 3DGS / SuGaR-regularised Gaussians from photos, on the CPU."
 );

@@ -103,6 +103,31 @@ impl Gaussians {
         }
     }
 
+    /// The Gaussians at `idx`, in that order (extra per-item properties
+    /// follow).
+    pub fn gather(&self, idx: &[usize]) -> Gaussians {
+        let k3 = self.rest_per_channel() * 3;
+        let mut extras = self.extras.clone();
+        extras.gather_items(idx);
+        Gaussians {
+            means: idx.iter().map(|&i| self.means[i]).collect(),
+            normals: self
+                .normals
+                .as_ref()
+                .map(|n| idx.iter().map(|&i| n[i]).collect()),
+            sh_degree: self.sh_degree,
+            sh_dc: idx.iter().map(|&i| self.sh_dc[i]).collect(),
+            sh_rest: idx
+                .iter()
+                .flat_map(|&i| self.sh_rest[i * k3..(i + 1) * k3].iter().copied())
+                .collect(),
+            opacity_logits: idx.iter().map(|&i| self.opacity_logits[i]).collect(),
+            log_scales: idx.iter().map(|&i| self.log_scales[i]).collect(),
+            rotations: idx.iter().map(|&i| self.rotations[i]).collect(),
+            extras,
+        }
+    }
+
     /// Checks that every array has one entry per Gaussian.
     pub fn validate(&self) -> Result<(), String> {
         let n = self.means.len();

@@ -15,4 +15,5 @@ pub mod prune_triangles;
 pub mod refine;
 pub mod render;
 pub mod splat2points;
+pub mod train;
 pub mod tsdf_fuse;

@@ -11,9 +11,11 @@
 //!   for bit.
 
 pub mod checkpoint;
+pub mod gaussians;
 pub mod groups;
 pub mod photometric;
 pub mod refine;
 pub mod schedule;
 pub mod sugar;
+pub mod trainer;
 pub mod triangles;

@@ -38,7 +38,8 @@ use splatkit_render::gaussian::RasterSettings;
 use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
 use splatkit_render::triangle::{rasterize, render};
-use splatkit_render::triangle_grad::{self, TriangleGrads};
+use splatkit_render::depth_normal::normal_consistency;
+use splatkit_render::triangle_grad::{self, AuxGrads, TriangleGrads};
 use splatkit_render::triangle_stats::triangle_stats;
 
 use self::mcmc::{McmcParams, McmcState};
@@ -271,9 +272,28 @@ impl TriangleTrainer {
         let (img, state) = rasterize(&t3, &view.camera, &s);
         let (photo, d_rgb) = loss_and_grad_weighted(&img.rgb, view, 1.0 - p.lambda_dssim);
         let psnr = psnr_of(&img.rgb, view);
-        let grads = triangle_grad::backward(&t3, &view.camera, &s, &state, &d_rgb, None);
-        let stats = triangle_stats(&t3, &view.camera, &s, &state);
         let mut loss = photo;
+        // 2DGS normal consistency on the expected depth after `mesh_from`
+        let normal_on = p.lambda_normals > 0.0 && self.iteration + 1 > p.at(5_000);
+        let (d_normal, d_depth) = if normal_on {
+            let (l, gn, gd) =
+                normal_consistency(&img.normal_sum, &img.expected_depth, &img.alpha, &view.camera);
+            loss += p.lambda_normals * l;
+            let w = p.lambda_normals as f32;
+            (
+                gn.into_iter().map(|g| g.map(|v| v * w)).collect(),
+                gd.into_iter().map(|g| g * w).collect(),
+            )
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        let aux = AuxGrads {
+            alpha: None,
+            depth: normal_on.then_some(&d_depth[..]),
+            normal: normal_on.then_some(&d_normal[..]),
+        };
+        let grads = triangle_grad::backward_aux(&t3, &view.camera, &s, &state, &d_rgb, &aux);
+        let stats = triangle_stats(&t3, &view.camera, &s, &state);
         let (mut gv, mut g_dc, g_rest, mut g_o, mut g_s) = self.raw_grads(&grads);
         let n = self.soup.len();
         let nf = n.max(1) as f64;
@@ -460,4 +480,4 @@ impl TriangleTrainer {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

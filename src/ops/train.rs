@@ -1,0 +1,570 @@
+//! `train`: Triangle Splatting ([`crate::train::triangles`]) and 3DGS with
+//! SuGaR's coarse regularisation ([`crate::train::gaussians`]) from a DATA
+//! folder of photos and cameras ([`crate::io::dataset`]), on the CPU.
+//!
+//! OUT_DIR receives (all at the end, through a staging folder, so a failed
+//! or interrupted run never leaves a half-written folder and a failed
+//! `--resume` leaves the old one as it was):
+//! - triangles: `point_cloud/iteration_N/point_cloud_state_dict.pt` (the
+//!   reference's checkpoint, which its `create_off.py` reads) and
+//!   `point_cloud/iteration_N/triangles.ply` (splatkit's soup PLY);
+//! - gaussians: `point_cloud/iteration_N/point_cloud.ply` (the standard
+//!   3DGS PLY, so `splat2points OUT_DIR` and 3DGS viewers take the folder);
+//! - both: `cameras.json` (the training cameras, at the training
+//!   resolution), `cfg_args` (3DGS's argparse Namespace), `input.ply` (the
+//!   initial points), `metrics.json` (held-out PSNR / SSIM at the start,
+//!   every `--eval-every` iterations and at the end, timings, settings) and
+//!   `checkpoint/` (`model.ply`, `optimizer.bin` with Adam moments and the
+//!   densification statistics, `state.json`) that `--resume OUT_DIR`
+//!   continues from bit for bit.
+//!
+//! Initial points: the data's (COLMAP `points3D`, a 3DGS folder's
+//! `input.ply`); otherwise `--init-points` random points (default 100,000)
+//! uniform in the bounding box of the training cameras' centres, with
+//! random colours, from `--seed` — the references' rule for synthetic
+//! scenes, with the cameras' box in place of their fixed cube.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand, ValueEnum};
+use serde_json::{Value, json};
+
+use crate::cli::{Common, shown};
+use crate::io::StagedDir;
+use crate::io::any::{load_gaussians, load_soup, save_gaussians, save_points, save_soup};
+use crate::io::cameras::gs_json::write_gs_json;
+use crate::io::dataset::{Dataset, DatasetOptions, MaskMode, load_dataset};
+use crate::io::detect::FileFormat;
+use crate::io::write_output;
+use crate::model::rng::seeded;
+use crate::model::{Camera, PointCloud};
+use crate::train::checkpoint::{decode, encode};
+use crate::train::gaussians::init::{init_gaussians, random_points};
+use crate::train::gaussians::{GaussianParams, GaussianTrainer, Regularize};
+use crate::train::photometric::Eval;
+use crate::train::schedule::split;
+use crate::train::trainer::Trainer;
+use crate::train::triangles::init::{InitParams, init_triangles};
+use crate::train::triangles::{Preset, TriangleParams, TriangleTrainer};
+
+/// Arguments of `train`.
+#[derive(Args, Debug, Clone)]
+pub struct TrainArgs {
+    #[command(subcommand)]
+    pub model: TrainModel,
+}
+
+/// Which model to train.
+#[derive(Subcommand, Debug, Clone)]
+pub enum TrainModel {
+    /// Triangle Splatting (MCMC densification; optional game-engine phase).
+    #[command(after_help = "Examples:
+  train triangles scene/ -o run/ --outdoor --iterations 30000 --max-shapes 500000
+  train triangles dtu_scan24/ -o run/ --indoor --downscale 4 --max-shapes 200000
+  train triangles scene/ -o run/ --game-engine
+  train triangles scene/ -o run/ --iterations 30000 --resume run/
+
+Outputs in OUT_DIR: point_cloud/iteration_N/{point_cloud_state_dict.pt, triangles.ply},
+cameras.json, cfg_args, input.ply, metrics.json, checkpoint/.")]
+    Triangles(TriangleArgs),
+    /// 3DGS, optionally with SuGaR's coarse regularisation.
+    #[command(after_help = "Examples:
+  train gaussians scene/ -o run/                          # vanilla 3DGS, 30000 iterations
+  train gaussians scene/ -o run/ --regularize density     # SuGaR coarse, 15000 iterations
+  train gaussians dtu_scan24/ -o run/ --regularize sdf --downscale 4
+  splatkit splat2points run/ -o - | splatkit poisson - -o mesh.ply
+
+Outputs in OUT_DIR: point_cloud/iteration_N/point_cloud.ply, cameras.json, cfg_args,
+input.ply, metrics.json, checkpoint/.")]
+    Gaussians(GaussianArgs),
+}
+
+/// What both models take.
+#[derive(Args, Debug, Clone)]
+pub struct DataArgs {
+    /// DATA folder: COLMAP (images/ + sparse/0), 3DGS (cameras.json +
+    /// images/), NeRF (transforms_train.json) or DTU (cameras_sphere.npz +
+    /// image/ + mask/).
+    pub data: PathBuf,
+    /// Output folder.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Iterations (default 30000; 15000 for SuGaR's coarse stage).
+    #[arg(long)]
+    pub iterations: Option<u64>,
+    /// Divide the cameras' resolution by this integer.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64), conflicts_with = "resolution")]
+    pub downscale: u32,
+    /// Train at about this image width (the integer downscale that brings
+    /// the widest camera to at most this).
+    #[arg(long, value_name = "WIDTH")]
+    pub resolution: Option<u32>,
+    /// Require masks (the data's mask folder); default: use them when present.
+    #[arg(long, conflicts_with = "no_masks")]
+    pub masks: bool,
+    /// Ignore masks even when the data has them.
+    #[arg(long)]
+    pub no_masks: bool,
+    /// White background (also the colour transparent photos are put on).
+    #[arg(long)]
+    pub white_background: bool,
+    /// Hold out every N-th view (camera order, from the first); 0 = none.
+    #[arg(long, default_value_t = 8)]
+    pub test_every: usize,
+    /// Evaluate the held-out views every N iterations (0: start and end).
+    #[arg(long, default_value_t = 1000)]
+    pub eval_every: u64,
+    /// Random initial points when the data has none.
+    #[arg(long, default_value_t = 100_000)]
+    pub init_points: usize,
+    /// Continue the run saved in this folder (its checkpoint/).
+    #[arg(long, value_name = "DIR")]
+    pub resume: Option<PathBuf>,
+    /// Seed of the view order, initialisation and densification.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// `train triangles`.
+#[derive(Args, Debug, Clone)]
+pub struct TriangleArgs {
+    #[command(flatten)]
+    pub data: DataArgs,
+    /// Indoor preset of the supplement's Table 1.
+    #[arg(long, conflicts_with = "outdoor")]
+    pub indoor: bool,
+    /// Outdoor preset (the default).
+    #[arg(long)]
+    pub outdoor: bool,
+    /// The game-engine variant: the final phase pushes σ → 0 and opacity
+    /// → 1 with rising pruning thresholds.
+    #[arg(long)]
+    pub game_engine: bool,
+    /// Most triangles the model may hold.
+    #[arg(long, default_value_t = 4_000_000)]
+    pub max_shapes: usize,
+    /// Add the dome of extra seeds (outdoor scenes).
+    #[arg(long)]
+    pub dome: bool,
+}
+
+/// SuGaR's regularisers on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum RegularizeArg {
+    Density,
+    Sdf,
+    DnConsistency,
+}
+
+/// `train gaussians`.
+#[derive(Args, Debug, Clone)]
+pub struct GaussianArgs {
+    #[command(flatten)]
+    pub data: DataArgs,
+    /// SuGaR's coarse stage with this surface regulariser.
+    #[arg(long, value_enum)]
+    pub regularize: Option<RegularizeArg>,
+    /// Regulariser samples per iteration (SuGaR: 1,000,000).
+    #[arg(long, default_value_t = 50_000)]
+    pub samples: usize,
+}
+
+fn read_json(path: &Path) -> anyhow::Result<Value> {
+    let b = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_slice(&b).with_context(|| format!("{}: not valid JSON", path.display()))
+}
+
+fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    write_output(path, |w| w.write_all(bytes).map_err(crate::io::source::werr))
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// `train` entry point.
+pub fn run(args: TrainArgs) -> anyhow::Result<()> {
+    match args.model {
+        TrainModel::Triangles(a) => run_triangles(a),
+        TrainModel::Gaussians(a) => run_gaussians(a),
+    }
+}
+
+/// The loaded data, split and initial points.
+struct Prepared {
+    data: Dataset,
+    train: Vec<usize>,
+    test: Vec<usize>,
+    points: PointCloud,
+    random_init: bool,
+    extent: f64,
+}
+
+fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
+    let opts = DatasetOptions {
+        downscale: a.downscale,
+        resolution: a.resolution,
+        masks: if a.masks {
+            MaskMode::On
+        } else if a.no_masks {
+            MaskMode::Off
+        } else {
+            MaskMode::Auto
+        },
+        background: if a.white_background { [1.0; 3] } else { [0.0; 3] },
+    };
+    let data = load_dataset(&a.data, &opts)?;
+    let (train, test) = split(data.views.len(), a.test_every);
+    if train.is_empty() {
+        bail!(
+            "all {} views of {} are held out (--test-every {}): nothing to train on",
+            data.views.len(),
+            a.data.display(),
+            a.test_every
+        );
+    }
+    let centres: Vec<[f64; 3]> = train
+        .iter()
+        .map(|&i| data.views[i].camera.center().to_array())
+        .collect();
+    let extent = nerfpp_radius(&centres);
+    let (points, random_init) = match &data.points {
+        Some(p) if p.len() >= 2 => (p.clone(), false),
+        _ => {
+            let (lo, hi) = bounding_box(&centres);
+            (random_points(a.init_points, lo, hi, &mut seeded(a.seed)), true)
+        }
+    };
+    Ok(Prepared {
+        data,
+        train,
+        test,
+        points,
+        random_init,
+        extent,
+    })
+}
+
+/// 3DGS's `getNerfppNorm` radius: 1.1 × the largest distance of a camera
+/// centre from their mean (1 when all coincide).
+pub fn nerfpp_radius(centres: &[[f64; 3]]) -> f64 {
+    let n = centres.len().max(1) as f64;
+    let c: [f64; 3] = std::array::from_fn(|k| centres.iter().map(|p| p[k]).sum::<f64>() / n);
+    let r = centres
+        .iter()
+        .map(|p| (0..3).map(|k| (p[k] - c[k]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    if r > 0.0 { 1.1 * r } else { 1.0 }
+}
+
+fn bounding_box(centres: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in centres {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    // a flat rig (all cameras in a plane) still gets a volume
+    let span = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max).max(1e-3);
+    for k in 0..3 {
+        if hi[k] - lo[k] < 0.5 * span {
+            let m = 0.5 * (hi[k] + lo[k]);
+            lo[k] = m - 0.25 * span;
+            hi[k] = m + 0.25 * span;
+        }
+    }
+    (lo, hi)
+}
+
+/// The checkpoint read for `--resume`: (model file, state.json, step,
+/// groups). `kind` is "triangles" or "gaussians".
+fn read_checkpoint(
+    dir: &Path,
+    kind: &str,
+) -> anyhow::Result<(PathBuf, Value, u64, Vec<crate::train::checkpoint::GroupState>)> {
+    let ck = dir.join("checkpoint");
+    let state = read_json(&ck.join("state.json"))?;
+    let got = state.get("model").and_then(Value::as_str).unwrap_or("");
+    if got != kind {
+        bail!(
+            "{}: the checkpoint is of a {} run, not `train {kind}` (resume with the same model)",
+            dir.display(),
+            if got.is_empty() { "non-`train`" } else { got }
+        );
+    }
+    let opt_path = ck.join("optimizer.bin");
+    let opt =
+        std::fs::read(&opt_path).with_context(|| format!("reading {}", opt_path.display()))?;
+    let (step, groups) = decode(&opt_path.display().to_string(), &opt)?;
+    Ok((ck.join("model.ply"), state, step, groups))
+}
+
+/// What the loop ends with.
+struct LoopResult {
+    evals: Vec<Eval>,
+    start: u64,
+    loop_s: f64,
+    last_loss: f64,
+}
+
+fn train_loop(
+    t: &mut dyn Trainer,
+    p: &Prepared,
+    a: &DataArgs,
+    iterations: u64,
+    mut evals: Vec<Eval>,
+    label: &'static str,
+) -> LoopResult {
+    let views = &p.data.views;
+    if !p.test.is_empty() && evals.is_empty() {
+        evals.push(t.eval(views, &p.test));
+    }
+    let start = t.iterations_done();
+    let pb = a.common.progress(iterations - start, label);
+    let t_loop = std::time::Instant::now();
+    let mut last_loss = 0.0;
+    while t.iterations_done() < iterations {
+        let st = t.step_once(views, &p.train);
+        last_loss = st.loss;
+        pb.inc(1);
+        let at = t.iterations_done();
+        if at.is_multiple_of(10) {
+            let rate = (at - start) as f64 / t_loop.elapsed().as_secs_f64().max(1e-9);
+            pb.set_message(format!(
+                "loss {:.4}  PSNR {:.2}  {} primitives  {rate:.2} it/s",
+                st.loss, st.psnr, st.count
+            ));
+        }
+        if !p.test.is_empty() && a.eval_every > 0 && at.is_multiple_of(a.eval_every) && at < iterations {
+            evals.push(t.eval(views, &p.test));
+        }
+    }
+    if !p.test.is_empty() && evals.last().map(|e| e.iteration) != Some(t.iterations_done()) {
+        evals.push(t.eval(views, &p.test));
+    }
+    pb.finish_and_clear();
+    LoopResult {
+        evals,
+        start,
+        loop_s: t_loop.elapsed().as_secs_f64(),
+        last_loss,
+    }
+}
+
+/// cfg_args as 3DGS writes it (a Python Namespace repr).
+fn cfg_args(a: &DataArgs, sh_degree: usize) -> String {
+    let py = |b: bool| if b { "True" } else { "False" };
+    format!(
+        "Namespace(data_device='cpu', eval={}, images='images', model_path={:?}, resolution={}, \
+         sh_degree={sh_degree}, source_path={:?}, white_background={})",
+        py(a.test_every > 0),
+        a.output.display().to_string(),
+        a.resolution.map_or(-1, |w| w as i64),
+        a.data.display().to_string(),
+        py(a.white_background)
+    )
+}
+
+/// Writes the files both models share and the checkpoint; returns the
+/// metrics JSON.
+#[allow(clippy::too_many_arguments)]
+fn write_common(
+    dir: &Path,
+    a: &DataArgs,
+    p: &Prepared,
+    t: &dyn Trainer,
+    kind: &str,
+    settings: &Value,
+    r: &LoopResult,
+    sh_degree: usize,
+    t0: std::time::Instant,
+) -> anyhow::Result<Value> {
+    let cams: Vec<Camera> = p.data.views.iter().map(|v| v.camera.clone()).collect();
+    write_gs_json(&dir.join("cameras.json"), &cams)?;
+    write_bytes(&dir.join("cfg_args"), cfg_args(a, sh_degree).as_bytes())?;
+    save_points(
+        &dir.join("input.ply"),
+        &p.points,
+        crate::io::ply::header::Format::BinaryLittleEndian,
+    )?;
+    let ck = dir.join("checkpoint");
+    let (step, groups) = t.state();
+    write_bytes(&ck.join("optimizer.bin"), &encode(step, &groups))?;
+    let state = json!({"format": "splatkit-train-checkpoint-1", "model": kind, "iteration": step,
+                       "settings": settings, "evals": r.evals});
+    write_bytes(&ck.join("state.json"), serde_json::to_string_pretty(&state)?.as_bytes())?;
+    let done = t.iterations_done() - r.start;
+    let v0 = &p.data.views[0].camera;
+    let summary = json!({
+        "model": kind,
+        "data": shown(&a.data, false),
+        "data_format": p.data.format,
+        "output": shown(&a.output, false),
+        "primitives": t.count(),
+        "initial_points": p.points.len(),
+        "random_init": p.random_init,
+        "train_views": p.train.len(),
+        "test_views": p.test.len(),
+        "width": v0.width,
+        "height": v0.height,
+        "iterations": t.iterations_done(),
+        "iterations_this_run": done,
+        "seconds": t0.elapsed().as_secs_f64(),
+        "loop_seconds": r.loop_s,
+        "iterations_per_second": done as f64 / r.loop_s.max(1e-9),
+        "final_loss": r.last_loss,
+        "evals": r.evals,
+        "settings": settings,
+    });
+    write_bytes(&dir.join("metrics.json"), serde_json::to_string_pretty(&summary)?.as_bytes())?;
+    Ok(summary)
+}
+
+fn report(a: &DataArgs, kind: &str, summary: &Value, r: &LoopResult, count: usize) -> anyhow::Result<()> {
+    let done = summary["iterations_this_run"].as_u64().unwrap_or(0);
+    match (r.evals.first(), r.evals.last()) {
+        (Some(f), Some(l)) => a.common.say(format!(
+            "train {kind}: {count} primitives, {done} iterations in {:.1} s ({:.2} it/s); held-out \
+             PSNR {:.2} -> {:.2} dB, SSIM {:.4} -> {:.4} -> {}",
+            r.loop_s,
+            done as f64 / r.loop_s.max(1e-9),
+            f.psnr,
+            l.psnr,
+            f.ssim,
+            l.ssim,
+            a.output.display()
+        )),
+        _ => a.common.say(format!(
+            "train {kind}: {count} primitives, {done} iterations in {:.1} s -> {}",
+            r.loop_s,
+            a.output.display()
+        )),
+    }
+    let mut compact = summary.clone();
+    if let Some(o) = compact.as_object_mut() {
+        o.remove("settings");
+    }
+    a.common.emit_json(&compact)
+}
+
+fn background(a: &DataArgs) -> [f32; 3] {
+    if a.white_background { [1.0; 3] } else { [0.0; 3] }
+}
+
+fn names(p: &Prepared) -> Vec<String> {
+    p.data.views.iter().map(|v| v.camera.name.clone()).collect()
+}
+
+fn check_resume(state: &Value, settings: &Value, dir: &Path) -> anyhow::Result<Vec<Eval>> {
+    if state.get("settings") != Some(settings) {
+        bail!(
+            "{}: the checkpoint was made with other settings or data (DATA, --iterations, \
+             --downscale/--resolution, masks, --test-every, --white-background, --seed and the \
+             model options must match the first run)",
+            dir.display()
+        );
+    }
+    match state.get("evals") {
+        Some(e) => serde_json::from_value(e.clone()).context("checkpoint state.json: evals"),
+        None => Ok(Vec::new()),
+    }
+}
+
+fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
+    let a = &args.data;
+    a.common.init()?;
+    let t0 = std::time::Instant::now();
+    let iterations = a.iterations.unwrap_or(30_000);
+    let stage = StagedDir::new(&a.output)?;
+    let p = prepare(a)?;
+    let preset = if args.indoor { Preset::Indoor } else { Preset::Outdoor };
+    let mut params = TriangleParams::preset(preset, iterations);
+    params.game_engine = args.game_engine;
+    params.mcmc.max_shapes = args.max_shapes;
+    params.background = background(a);
+    params.seed = a.seed;
+    let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
+        "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(), "dome": args.dome,
+        "init_points": a.init_points});
+    let (mut t, evals) = match &a.resume {
+        Some(dir) => {
+            let (model, state, step, groups) = read_checkpoint(dir, "triangles")?;
+            let evals = check_resume(&state, &settings, dir)?;
+            let soup = load_soup(&model, "train triangles --resume")?;
+            let mut t = TriangleTrainer::new(soup, params);
+            t.restore(step, groups)
+                .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
+            (t, evals)
+        }
+        None => {
+            let init = InitParams {
+                dome: args.dome,
+                ..Default::default()
+            };
+            let soup = init_triangles(&p.points, &init, &mut seeded(a.seed))?;
+            (TriangleTrainer::new(soup, params), Vec::new())
+        }
+    };
+    if t.iteration() > iterations {
+        bail!("the checkpoint is at iteration {} already, past --iterations {iterations}", t.iteration());
+    }
+    let r = train_loop(&mut t, &p, a, iterations, evals, "train triangles");
+    let dir = stage.path().to_path_buf();
+    let model = t.model();
+    let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
+    save_soup(&it_dir.join("point_cloud_state_dict.pt"), &model, FileFormat::TorchPt)?;
+    save_soup(&it_dir.join("triangles.ply"), &model, FileFormat::Ply)?;
+    save_soup(&dir.join("checkpoint/model.ply"), &model, FileFormat::Ply)?;
+    let summary = write_common(&dir, a, &p, &t, "triangles", &settings, &r, model.sh_degree, t0)?;
+    stage.commit()?;
+    report(a, "triangles", &summary, &r, model.len())
+}
+
+fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
+    let a = &args.data;
+    a.common.init()?;
+    let t0 = std::time::Instant::now();
+    let regularize = args.regularize.map(|r| match r {
+        RegularizeArg::Density => Regularize::Density,
+        RegularizeArg::Sdf => Regularize::Sdf,
+        RegularizeArg::DnConsistency => Regularize::DnConsistency,
+    });
+    let iterations = a
+        .iterations
+        .unwrap_or(if regularize.is_some() { 15_000 } else { 30_000 });
+    let stage = StagedDir::new(&a.output)?;
+    let p = prepare(a)?;
+    let mut params = GaussianParams::new(iterations, regularize, p.extent);
+    params.samples = args.samples;
+    params.background = background(a);
+    params.white_background = a.white_background;
+    params.seed = a.seed;
+    let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
+        "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(),
+        "init_points": a.init_points});
+    let (mut t, evals) = match &a.resume {
+        Some(dir) => {
+            let (model, state, step, groups) = read_checkpoint(dir, "gaussians")?;
+            let evals = check_resume(&state, &settings, dir)?;
+            let g = load_gaussians(&model, "train gaussians --resume")?;
+            let mut t = GaussianTrainer::new(g, params);
+            t.restore(step, groups)
+                .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
+            (t, evals)
+        }
+        None => (GaussianTrainer::new(init_gaussians(&p.points, 3)?, params), Vec::new()),
+    };
+    if t.iteration() > iterations {
+        bail!("the checkpoint is at iteration {} already, past --iterations {iterations}", t.iteration());
+    }
+    let r = train_loop(&mut t, &p, a, iterations, evals, "train gaussians");
+    let dir = stage.path().to_path_buf();
+    let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
+    save_gaussians(&it_dir.join("point_cloud.ply"), &t.model)?;
+    save_gaussians(&dir.join("checkpoint/model.ply"), &t.model)?;
+    let summary = write_common(&dir, a, &p, &t, "gaussians", &settings, &r, t.model.sh_degree, t0)?;
+    stage.commit()?;
+    report(a, "gaussians", &summary, &r, t.model.len())
+}

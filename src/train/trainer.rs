@@ -1,0 +1,85 @@
+//! The seam between the training loop (the `train` op: views, progress,
+//! evaluation, checkpoints) and the models: both trainers implement
+//! [`Trainer`], so one loop drives Triangle Splatting and 3DGS / SuGaR, and
+//! a new model (or a GPU backend of one) plugs in by implementing it.
+
+use super::checkpoint::GroupState;
+use super::photometric::Eval;
+use crate::model::View;
+
+/// The common summary of one iteration.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Progress {
+    pub loss: f64,
+    pub psnr: f64,
+    /// Primitives after the step.
+    pub count: usize,
+}
+
+/// A model trainer (see the module docs).
+pub trait Trainer {
+    /// One optimisation step on the next view of `train`.
+    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress;
+    /// Held-out PSNR / SSIM.
+    fn eval(&self, views: &[View], test: &[usize]) -> Eval;
+    /// Iterations done.
+    fn iterations_done(&self) -> u64;
+    /// Primitives in the model.
+    fn count(&self) -> usize;
+    /// Optimiser and strategy state: (step, groups).
+    fn state(&self) -> (u64, Vec<GroupState>);
+    /// Restores [`Trainer::state`] for the model already loaded.
+    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String>;
+}
+
+impl Trainer for super::triangles::TriangleTrainer {
+    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
+        let s = self.step(views, train);
+        Progress {
+            loss: s.loss,
+            psnr: s.psnr,
+            count: s.count,
+        }
+    }
+    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
+        self.evaluate(views, test)
+    }
+    fn iterations_done(&self) -> u64 {
+        self.iteration()
+    }
+    fn count(&self) -> usize {
+        self.soup.len()
+    }
+    fn state(&self) -> (u64, Vec<GroupState>) {
+        self.optimizer_state()
+    }
+    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+        self.restore(step, groups)
+    }
+}
+
+impl Trainer for super::gaussians::GaussianTrainer {
+    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
+        let s = self.step(views, train);
+        Progress {
+            loss: s.loss,
+            psnr: s.psnr,
+            count: s.count,
+        }
+    }
+    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
+        self.evaluate(views, test)
+    }
+    fn iterations_done(&self) -> u64 {
+        self.iteration()
+    }
+    fn count(&self) -> usize {
+        self.model.len()
+    }
+    fn state(&self) -> (u64, Vec<GroupState>) {
+        self.optimizer_state()
+    }
+    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+        self.restore(step, groups)
+    }
+}
