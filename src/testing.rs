@@ -165,3 +165,69 @@ pub fn textured_photos(truth: &Mesh, cams: &[Camera]) -> Vec<View> {
         })
         .collect()
 }
+
+/// `n` seed points on the unit sphere (uniform directions from `seed`),
+/// coloured by [`sphere_texture`]: what SfM would give on the generated
+/// sphere scene.
+pub fn sphere_points(n: usize, seed: u64) -> crate::model::PointCloud {
+    use rand::RngExt;
+    let mut r = crate::model::rng::seeded(seed);
+    let mut pc = crate::model::PointCloud::default();
+    let mut colors = Vec::new();
+    for _ in 0..n {
+        let p = loop {
+            let q = DVec3::new(
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+            );
+            if q.length() > 0.1 && q.length() <= 1.0 {
+                break q.normalize();
+            }
+        };
+        pc.positions.push(p.as_vec3().to_array());
+        colors.push(sphere_texture(p).map(|v| (v * 255.0).round() as u8));
+    }
+    pc.colors = Some(colors);
+    pc
+}
+
+/// Writes the generated sphere scene as a 3DGS-style DATA folder:
+/// `images/vNN.png` ([`textured_photos`] of a 48-ring sphere from
+/// [`cameras_around`]`(n, 3.5, size, 1.25·size)`), `cameras.json` and,
+/// when `points > 0`, `input.ply` with [`sphere_points`]`(points, 3)`.
+pub fn write_sphere_dataset(
+    dir: &std::path::Path,
+    n: usize,
+    size: u32,
+    points: usize,
+) -> crate::Result<()> {
+    use crate::io::write_output;
+    let truth = uv_sphere(48, 1.0);
+    let cams = cameras_around(n, 3.5, size, 1.25 * size as f64);
+    let views = textured_photos(&truth, &cams);
+    std::fs::create_dir_all(dir.join("images"))
+        .map_err(|e| crate::Error::invalid(format!("{}: {e}", dir.display())))?;
+    for v in &views {
+        let bytes: Vec<u8> = v
+            .image
+            .iter()
+            .flatten()
+            .map(|&x| crate::io::image::to_u8(x))
+            .collect();
+        let path = dir.join("images").join(format!("{}.png", v.camera.name));
+        let name = path.display().to_string();
+        write_output(&path, |w| {
+            crate::io::image::write_png8(w, &name, size as usize, size as usize, 3, &bytes)
+        })?;
+    }
+    crate::io::cameras::gs_json::write_gs_json(&dir.join("cameras.json"), &cams)?;
+    if points > 0 {
+        crate::io::any::save_points(
+            &dir.join("input.ply"),
+            &sphere_points(points, 3),
+            crate::io::ply::header::Format::BinaryLittleEndian,
+        )?;
+    }
+    Ok(())
+}

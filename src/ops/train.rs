@@ -121,6 +121,10 @@ pub struct DataArgs {
     /// Continue the run saved in this folder (its checkpoint/).
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
+    /// Stop after this iteration and write everything (a planned
+    /// interruption: `--resume` then continues the same --iterations run).
+    #[arg(long, value_name = "N")]
+    pub stop_at: Option<u64>,
     /// Seed of the view order, initialisation and densification.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -177,9 +181,15 @@ fn read_json(path: &Path) -> anyhow::Result<Value> {
     serde_json::from_slice(&b).with_context(|| format!("{}: not valid JSON", path.display()))
 }
 
+fn mkdir(dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
+}
+
 fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    write_output(path, |w| w.write_all(bytes).map_err(crate::io::source::werr))
-        .with_context(|| format!("writing {}", path.display()))
+    write_output(path, |w| {
+        w.write_all(bytes).map_err(crate::io::source::werr)
+    })
+    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// `train` entry point.
@@ -211,7 +221,11 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
         } else {
             MaskMode::Auto
         },
-        background: if a.white_background { [1.0; 3] } else { [0.0; 3] },
+        background: if a.white_background {
+            [1.0; 3]
+        } else {
+            [0.0; 3]
+        },
     };
     let data = load_dataset(&a.data, &opts)?;
     let (train, test) = split(data.views.len(), a.test_every);
@@ -232,7 +246,10 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
         Some(p) if p.len() >= 2 => (p.clone(), false),
         _ => {
             let (lo, hi) = bounding_box(&centres);
-            (random_points(a.init_points, lo, hi, &mut seeded(a.seed)), true)
+            (
+                random_points(a.init_points, lo, hi, &mut seeded(a.seed)),
+                true,
+            )
         }
     };
     Ok(Prepared {
@@ -283,7 +300,12 @@ fn bounding_box(centres: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 fn read_checkpoint(
     dir: &Path,
     kind: &str,
-) -> anyhow::Result<(PathBuf, Value, u64, Vec<crate::train::checkpoint::GroupState>)> {
+) -> anyhow::Result<(
+    PathBuf,
+    Value,
+    u64,
+    Vec<crate::train::checkpoint::GroupState>,
+)> {
     let ck = dir.join("checkpoint");
     let state = read_json(&ck.join("state.json"))?;
     let got = state.get("model").and_then(Value::as_str).unwrap_or("");
@@ -322,10 +344,11 @@ fn train_loop(
         evals.push(t.eval(views, &p.test));
     }
     let start = t.iterations_done();
-    let pb = a.common.progress(iterations - start, label);
+    let end = a.stop_at.map_or(iterations, |s| s.clamp(start, iterations));
+    let pb = a.common.progress(end - start, label);
     let t_loop = std::time::Instant::now();
     let mut last_loss = 0.0;
-    while t.iterations_done() < iterations {
+    while t.iterations_done() < end {
         let st = t.step_once(views, &p.train);
         last_loss = st.loss;
         pb.inc(1);
@@ -337,11 +360,19 @@ fn train_loop(
                 st.loss, st.psnr, st.count
             ));
         }
-        if !p.test.is_empty() && a.eval_every > 0 && at.is_multiple_of(a.eval_every) && at < iterations {
+        if !p.test.is_empty()
+            && a.eval_every > 0
+            && at.is_multiple_of(a.eval_every)
+            && at < iterations
+        {
             evals.push(t.eval(views, &p.test));
         }
     }
-    if !p.test.is_empty() && evals.last().map(|e| e.iteration) != Some(t.iterations_done()) {
+    let finished = t.iterations_done() == iterations;
+    if !p.test.is_empty()
+        && evals.last().map(|e| e.iteration) != Some(t.iterations_done())
+        && finished
+    {
         evals.push(t.eval(views, &p.test));
     }
     pb.finish_and_clear();
@@ -394,7 +425,10 @@ fn write_common(
     write_bytes(&ck.join("optimizer.bin"), &encode(step, &groups))?;
     let state = json!({"format": "splatkit-train-checkpoint-1", "model": kind, "iteration": step,
                        "settings": settings, "evals": r.evals});
-    write_bytes(&ck.join("state.json"), serde_json::to_string_pretty(&state)?.as_bytes())?;
+    write_bytes(
+        &ck.join("state.json"),
+        serde_json::to_string_pretty(&state)?.as_bytes(),
+    )?;
     let done = t.iterations_done() - r.start;
     let v0 = &p.data.views[0].camera;
     let summary = json!({
@@ -418,11 +452,20 @@ fn write_common(
         "evals": r.evals,
         "settings": settings,
     });
-    write_bytes(&dir.join("metrics.json"), serde_json::to_string_pretty(&summary)?.as_bytes())?;
+    write_bytes(
+        &dir.join("metrics.json"),
+        serde_json::to_string_pretty(&summary)?.as_bytes(),
+    )?;
     Ok(summary)
 }
 
-fn report(a: &DataArgs, kind: &str, summary: &Value, r: &LoopResult, count: usize) -> anyhow::Result<()> {
+fn report(
+    a: &DataArgs,
+    kind: &str,
+    summary: &Value,
+    r: &LoopResult,
+    count: usize,
+) -> anyhow::Result<()> {
     let done = summary["iterations_this_run"].as_u64().unwrap_or(0);
     match (r.evals.first(), r.evals.last()) {
         (Some(f), Some(l)) => a.common.say(format!(
@@ -450,7 +493,11 @@ fn report(a: &DataArgs, kind: &str, summary: &Value, r: &LoopResult, count: usiz
 }
 
 fn background(a: &DataArgs) -> [f32; 3] {
-    if a.white_background { [1.0; 3] } else { [0.0; 3] }
+    if a.white_background {
+        [1.0; 3]
+    } else {
+        [0.0; 3]
+    }
 }
 
 fn names(p: &Prepared) -> Vec<String> {
@@ -479,7 +526,11 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     let iterations = a.iterations.unwrap_or(30_000);
     let stage = StagedDir::new(&a.output)?;
     let p = prepare(a)?;
-    let preset = if args.indoor { Preset::Indoor } else { Preset::Outdoor };
+    let preset = if args.indoor {
+        Preset::Indoor
+    } else {
+        Preset::Outdoor
+    };
     let mut params = TriangleParams::preset(preset, iterations);
     params.game_engine = args.game_engine;
     params.mcmc.max_shapes = args.max_shapes;
@@ -508,16 +559,35 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
         }
     };
     if t.iteration() > iterations {
-        bail!("the checkpoint is at iteration {} already, past --iterations {iterations}", t.iteration());
+        bail!(
+            "the checkpoint is at iteration {} already, past --iterations {iterations}",
+            t.iteration()
+        );
     }
     let r = train_loop(&mut t, &p, a, iterations, evals, "train triangles");
     let dir = stage.path().to_path_buf();
     let model = t.model();
     let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
-    save_soup(&it_dir.join("point_cloud_state_dict.pt"), &model, FileFormat::TorchPt)?;
+    mkdir(&it_dir)?;
+    mkdir(&dir.join("checkpoint"))?;
+    save_soup(
+        &it_dir.join("point_cloud_state_dict.pt"),
+        &model,
+        FileFormat::TorchPt,
+    )?;
     save_soup(&it_dir.join("triangles.ply"), &model, FileFormat::Ply)?;
     save_soup(&dir.join("checkpoint/model.ply"), &model, FileFormat::Ply)?;
-    let summary = write_common(&dir, a, &p, &t, "triangles", &settings, &r, model.sh_degree, t0)?;
+    let summary = write_common(
+        &dir,
+        a,
+        &p,
+        &t,
+        "triangles",
+        &settings,
+        &r,
+        model.sh_degree,
+        t0,
+    )?;
     stage.commit()?;
     report(a, "triangles", &summary, &r, model.len())
 }
@@ -554,17 +624,35 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
                 .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
             (t, evals)
         }
-        None => (GaussianTrainer::new(init_gaussians(&p.points, 3)?, params), Vec::new()),
+        None => (
+            GaussianTrainer::new(init_gaussians(&p.points, 3)?, params),
+            Vec::new(),
+        ),
     };
     if t.iteration() > iterations {
-        bail!("the checkpoint is at iteration {} already, past --iterations {iterations}", t.iteration());
+        bail!(
+            "the checkpoint is at iteration {} already, past --iterations {iterations}",
+            t.iteration()
+        );
     }
     let r = train_loop(&mut t, &p, a, iterations, evals, "train gaussians");
     let dir = stage.path().to_path_buf();
     let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
+    mkdir(&it_dir)?;
+    mkdir(&dir.join("checkpoint"))?;
     save_gaussians(&it_dir.join("point_cloud.ply"), &t.model)?;
     save_gaussians(&dir.join("checkpoint/model.ply"), &t.model)?;
-    let summary = write_common(&dir, a, &p, &t, "gaussians", &settings, &r, t.model.sh_degree, t0)?;
+    let summary = write_common(
+        &dir,
+        a,
+        &p,
+        &t,
+        "gaussians",
+        &settings,
+        &r,
+        t.model.sh_degree,
+        t0,
+    )?;
     stage.commit()?;
     report(a, "gaussians", &summary, &r, t.model.len())
 }

@@ -109,7 +109,9 @@ impl AdcState {
 }
 
 fn max_scale(g: &Gaussians, i: usize) -> f64 {
-    g.log_scales[i].iter().fold(f64::MIN, |m, &v| m.max((v as f64).exp()))
+    g.log_scales[i]
+        .iter()
+        .fold(f64::MIN, |m, &v| m.max((v as f64).exp()))
 }
 
 /// Appends a copy of row `i` of `g` with a new mean and log scales.
@@ -153,7 +155,11 @@ pub fn densify_and_prune(
         if grads[i] >= p.grad_threshold && max_scale(g, i) > limit {
             let [w, x, y, z] = g.rotations[i].map(f64::from);
             let q = DQuat::from_xyzw(x, y, z, w);
-            let q = if q.length() > 0.0 { q.normalize() } else { DQuat::IDENTITY };
+            let q = if q.length() > 0.0 {
+                q.normalize()
+            } else {
+                DQuat::IDENTITY
+            };
             let s = DVec3::from_array(g.log_scales[i].map(|v| (v as f64).exp()));
             let mu = DVec3::from_array(g.means[i].map(f64::from));
             let ls = g.log_scales[i].map(|v| v - 1.6f32.ln());
@@ -214,7 +220,10 @@ mod tests {
             sh_dc: vec![[0.1, 0.2, 0.3]; n],
             sh_rest: vec![],
             opacity_logits: opac.iter().map(|&o| logit(o)).collect(),
-            log_scales: scales.iter().map(|&s| [s.ln(), (0.5 * s).ln(), (0.1 * s).ln()]).collect(),
+            log_scales: scales
+                .iter()
+                .map(|&s| [s.ln(), (0.5 * s).ln(), (0.1 * s).ln()])
+                .collect(),
             rotations: vec![[1.0, 0.0, 0.0, 0.0]; n],
             extras: Default::default(),
         }
@@ -227,9 +236,19 @@ mod tests {
     #[test]
     fn clone_split_prune_thresholds() {
         // extent 10: clone limit 0.1, world limit 1.0
-        let mut g = gs(&[0.05, 0.5, 0.5, 0.05, 0.05, 2.0], &[0.5, 0.5, 0.5, 0.004, 0.5, 0.5]);
+        let mut g = gs(
+            &[0.05, 0.5, 0.5, 0.05, 0.05, 2.0],
+            &[0.5, 0.5, 0.5, 0.004, 0.5, 0.5],
+        );
         let mut st = AdcState::new(6);
-        let ndc = vec![[3e-4, 0.0], [0.0, 3e-4], [1e-4, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]];
+        let ndc = vec![
+            [3e-4, 0.0],
+            [0.0, 3e-4],
+            [1e-4, 0.0],
+            [0.0, 0.0],
+            [0.0, 0.0],
+            [0.0, 0.0],
+        ];
         let mut radii = vec![5.0; 6];
         radii[4] = 25.0;
         st.observe(&ndc, &radii);
@@ -247,7 +266,9 @@ mod tests {
         assert_eq!(g.log_scales[2], before.log_scales[0]);
         for c in 3..5 {
             for k in 0..3 {
-                assert!((g.log_scales[c][k] - (before.log_scales[1][k] - 1.6f32.ln())).abs() < 1e-6);
+                assert!(
+                    (g.log_scales[c][k] - (before.log_scales[1][k] - 1.6f32.ln())).abs() < 1e-6
+                );
             }
             // within a few standard deviations of the parent
             assert!((g.means[c][0] - 1.0).abs() < 5.0 * 0.5);
@@ -257,7 +278,10 @@ mod tests {
         let mut g = gs(&[0.05, 2.0], &[0.5, 0.5]);
         let mut st = AdcState::new(2);
         st.observe(&[[0.0; 2]; 2], &[30.0, 5.0]);
-        assert_eq!(densify_and_prune(&mut g, &mut st, &p, false, &mut seeded(1)).len(), 2);
+        assert_eq!(
+            densify_and_prune(&mut g, &mut st, &p, false, &mut seeded(1)).len(),
+            2
+        );
     }
 
     /// The gradient is averaged over the views where the Gaussian was

@@ -23,7 +23,8 @@ pub fn random_points(n: usize, lo: [f64; 3], hi: [f64; 3], rng: &mut Rng) -> Poi
     let mut pc = PointCloud::default();
     let mut colors = Vec::with_capacity(n);
     for _ in 0..n {
-        let p: [f32; 3] = std::array::from_fn(|k| (lo[k] + (hi[k] - lo[k]) * rng.random::<f64>()) as f32);
+        let p: [f32; 3] =
+            std::array::from_fn(|k| (lo[k] + (hi[k] - lo[k]) * rng.random::<f64>()) as f32);
         pc.positions.push(p);
         colors.push(std::array::from_fn(|_| rng.random_range(0..=255u32) as u8));
     }
@@ -85,13 +86,23 @@ mod tests {
     #[test]
     fn init_values() {
         let pc = PointCloud {
-            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]],
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 1.0, 0.0],
+            ],
             colors: Some(vec![[255, 128, 0]; 4]),
             ..Default::default()
         };
         let g = init_gaussians(&pc, 3).unwrap();
         let want = (4.0f64 / 3.0).sqrt().ln() as f32;
-        assert!(g.log_scales.iter().flatten().all(|&s| (s - want).abs() < 1e-6));
+        assert!(
+            g.log_scales
+                .iter()
+                .flatten()
+                .all(|&s| (s - want).abs() < 1e-6)
+        );
         assert!((g.opacity(0) - 0.1).abs() < 1e-6);
         assert_eq!(g.rotations[2], [1.0, 0.0, 0.0, 0.0]);
         assert!((g.sh_dc[0][0] - 0.5 / C0).abs() < 1e-5);
@@ -105,6 +116,8 @@ mod tests {
         let a = random_points(500, [-1.0, 0.0, 2.0], [1.0, 0.5, 3.0], &mut seeded(9));
         let b = random_points(500, [-1.0, 0.0, 2.0], [1.0, 0.5, 3.0], &mut seeded(9));
         assert_eq!(a, b);
-        assert!(a.positions.iter().all(|p| p[0].abs() <= 1.0 && (0.0..=0.5).contains(&p[1]) && (2.0..=3.0).contains(&p[2])));
+        assert!(a.positions.iter().all(|p| p[0].abs() <= 1.0
+            && (0.0..=0.5).contains(&p[1])
+            && (2.0..=3.0).contains(&p[2])));
     }
 }

@@ -112,7 +112,11 @@ impl GaussianParams {
 
     /// The reference run length: 30,000 (3DGS) or 15,000 (SuGaR coarse).
     pub fn reference_length(&self) -> u64 {
-        if self.regularize.is_some() { 15_000 } else { 30_000 }
+        if self.regularize.is_some() {
+            15_000
+        } else {
+            30_000
+        }
     }
 
     /// A reference milestone scaled to this run.
@@ -124,12 +128,23 @@ impl GaussianParams {
 
     /// Last iteration of densification.
     pub fn densify_until(&self) -> u64 {
-        self.at(if self.regularize.is_some() { 7_000 } else { 15_000 })
+        self.at(if self.regularize.is_some() {
+            7_000
+        } else {
+            15_000
+        })
     }
 }
 
 /// Names of the optimiser groups, in order.
-pub const GROUPS: [&str; 6] = ["means", "sh_dc", "sh_rest", "opacity", "scales", "rotations"];
+pub const GROUPS: [&str; 6] = [
+    "means",
+    "sh_dc",
+    "sh_rest",
+    "opacity",
+    "scales",
+    "rotations",
+];
 
 /// What one iteration measured.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -211,11 +226,31 @@ impl GaussianTrainer {
                     steps: p.at(30_000),
                 },
             },
-            GroupSpec { name: GROUPS[1], width: 3, lr: c(p.lr_sh_dc) },
-            GroupSpec { name: GROUPS[2], width: g.rest_per_channel() * 3, lr: c(p.lr_sh_rest) },
-            GroupSpec { name: GROUPS[3], width: 1, lr: c(p.lr_opacity) },
-            GroupSpec { name: GROUPS[4], width: 3, lr: c(p.lr_scales) },
-            GroupSpec { name: GROUPS[5], width: 4, lr: c(p.lr_rotations) },
+            GroupSpec {
+                name: GROUPS[1],
+                width: 3,
+                lr: c(p.lr_sh_dc),
+            },
+            GroupSpec {
+                name: GROUPS[2],
+                width: g.rest_per_channel() * 3,
+                lr: c(p.lr_sh_rest),
+            },
+            GroupSpec {
+                name: GROUPS[3],
+                width: 1,
+                lr: c(p.lr_opacity),
+            },
+            GroupSpec {
+                name: GROUPS[4],
+                width: 3,
+                lr: c(p.lr_scales),
+            },
+            GroupSpec {
+                name: GROUPS[5],
+                width: 4,
+                lr: c(p.lr_rotations),
+            },
         ]
     }
 
@@ -269,9 +304,7 @@ impl GaussianTrainer {
             }
         }
         if let Some(mode) = self.regularizing() {
-            if self.nbrs.is_none()
-                || (it1 - p.at(9_000)).is_multiple_of(p.at(500))
-            {
+            if self.nbrs.is_none() || (it1 - p.at(9_000)).is_multiple_of(p.at(500)) {
                 self.nbrs = Neighbours::build(&self.model.means, SUGAR_K).ok();
             }
             if let Some(nbrs) = &self.nbrs {
@@ -286,8 +319,14 @@ impl GaussianTrainer {
                     }
                     Regularize::Sdf => {
                         let sp = SdfParams::sugar(p.adc.extent);
-                        let (l, g, dd) =
-                            sdf_regularizer(&self.model, nbrs, &samples, cam, &img.expected_depth, &sp);
+                        let (l, g, dd) = sdf_regularizer(
+                            &self.model,
+                            nbrs,
+                            &samples,
+                            cam,
+                            &img.expected_depth,
+                            &sp,
+                        );
                         reg_loss += 0.2 * l;
                         g.add_to(&mut reg, 0.2);
                         d_depth = Some(dd.into_iter().map(|v| 0.2 * v).collect());
@@ -310,7 +349,8 @@ impl GaussianTrainer {
         let gg = gaussian_grad::backward_aux(&g3, cam, &s, &state, &d_rgb, &aux);
         if it1 < p.densify_until() {
             let radii = state.radii(n, cam.width as usize, cam.height as usize);
-            self.adc.observe(&gg.means2d_ndc(cam.width, cam.height), &radii);
+            self.adc
+                .observe(&gg.means2d_ndc(cam.width, cam.height), &radii);
         }
         self.apply(&gg, &reg, d);
         self.iteration += 1;
@@ -381,8 +421,12 @@ impl GaussianTrainer {
             }
         }
         if p.regularize.is_some() && it == p.at(9_000) {
-            let mut keep: Vec<bool> =
-                self.model.opacity_logits.iter().map(|&o| o >= 0.0).collect();
+            let mut keep: Vec<bool> = self
+                .model
+                .opacity_logits
+                .iter()
+                .map(|&o| o >= 0.0)
+                .collect();
             if !keep.contains(&true) {
                 // never empty the model: a run too short to recover from its
                 // last opacity reset keeps everything
@@ -401,7 +445,9 @@ impl GaussianTrainer {
     pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
         let g3 = raster(&self.model, self.active_degree());
         let s = self.settings();
-        evaluate(views, test, self.iteration, |v| render(&g3, &v.camera, &s).rgb)
+        evaluate(views, test, self.iteration, |v| {
+            render(&g3, &v.camera, &s).rgb
+        })
     }
 
     /// The optimiser and strategy state for a checkpoint; the density
@@ -418,7 +464,10 @@ impl GaussianTrainer {
         g.push(extra("state/count", self.adc.count.clone()));
         g.push(extra("state/max_radius", self.adc.max_radius.clone()));
         if let Some(nb) = &self.nbrs {
-            g.push(extra("state/neighbours", nb.idx.iter().map(|&i| i as f32).collect()));
+            g.push(extra(
+                "state/neighbours",
+                nb.idx.iter().map(|&i| i as f32).collect(),
+            ));
         }
         (self.iteration, g)
     }
@@ -430,10 +479,9 @@ impl GaussianTrainer {
         self.groups = Groups::new(Self::specs(&self.params, &self.model), n);
         self.groups.restore(step, &groups, n)?;
         let get = |name: &str| -> Result<Vec<f32>, String> {
-            let g = groups
-                .iter()
-                .find(|g| g.name == name)
-                .ok_or_else(|| format!("the checkpoint has no {name} (not a Gaussian training?)"))?;
+            let g = groups.iter().find(|g| g.name == name).ok_or_else(|| {
+                format!("the checkpoint has no {name} (not a Gaussian training?)")
+            })?;
             if g.m.len() != n {
                 return Err(format!("{name} holds {} values, expected {n}", g.m.len()));
             }

@@ -25,7 +25,12 @@ fn trains_on_a_generated_sphere() {
         t.step(&views, &train);
     }
     let e1 = t.evaluate(&views, &test);
-    eprintln!("gaussians: PSNR {:.2} -> {:.2} dB, {} Gaussians", e0.psnr, e1.psnr, t.model.len());
+    eprintln!(
+        "gaussians: PSNR {:.2} -> {:.2} dB, {} Gaussians",
+        e0.psnr,
+        e1.psnr,
+        t.model.len()
+    );
     assert!(e1.psnr > e0.psnr + 8.0, "{} -> {}", e0.psnr, e1.psnr);
     assert!(t.model.len() > 800);
 }
@@ -36,7 +41,11 @@ fn trains_on_a_generated_sphere() {
 fn sugar_phases_prune_and_regularize() {
     let views = scene(16, 32);
     let (train, _) = split(views.len(), 8);
-    for mode in [Regularize::Density, Regularize::Sdf, Regularize::DnConsistency] {
+    for mode in [
+        Regularize::Density,
+        Regularize::Sdf,
+        Regularize::DnConsistency,
+    ] {
         let g = init_gaussians(&sphere_points(300, 3), 3).unwrap();
         let mut p = GaussianParams::new(1200, Some(mode), 3.85);
         p.samples = 2000;
@@ -49,7 +58,10 @@ fn sugar_phases_prune_and_regularize() {
                 assert!(!t.model.is_empty());
             }
         }
-        assert!(last.regularizer.is_finite() && last.regularizer > 0.0, "{mode:?}: {last:?}");
+        assert!(
+            last.regularizer.is_finite() && last.regularizer > 0.0,
+            "{mode:?}: {last:?}"
+        );
         assert!(t.model.means.iter().flatten().all(|v| v.is_finite()));
     }
 }

@@ -34,11 +34,11 @@
 pub mod init;
 pub mod mcmc;
 
+use splatkit_render::depth_normal::normal_consistency;
 use splatkit_render::gaussian::RasterSettings;
 use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
 use splatkit_render::triangle::{rasterize, render};
-use splatkit_render::depth_normal::normal_consistency;
 use splatkit_render::triangle_grad::{self, AuxGrads, TriangleGrads};
 use splatkit_render::triangle_stats::triangle_stats;
 
@@ -276,8 +276,12 @@ impl TriangleTrainer {
         // 2DGS normal consistency on the expected depth after `mesh_from`
         let normal_on = p.lambda_normals > 0.0 && self.iteration + 1 > p.at(5_000);
         let (d_normal, d_depth) = if normal_on {
-            let (l, gn, gd) =
-                normal_consistency(&img.normal_sum, &img.expected_depth, &img.alpha, &view.camera);
+            let (l, gn, gd) = normal_consistency(
+                &img.normal_sum,
+                &img.expected_depth,
+                &img.alpha,
+                &view.camera,
+            );
             loss += p.lambda_normals * l;
             let w = p.lambda_normals as f32;
             (

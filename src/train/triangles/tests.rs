@@ -2,9 +2,9 @@ use glam::DVec3;
 
 use super::init::{InitParams, init_triangles};
 use super::*;
-use crate::model::PointCloud;
 use crate::model::rng::seeded;
-use crate::testing::{cameras_around, sphere_texture, textured_photos, uv_sphere};
+pub use crate::testing::sphere_points;
+use crate::testing::{cameras_around, textured_photos, uv_sphere};
 use crate::train::schedule::split;
 
 /// λ / mean(area): value and vertex gradient against central differences
@@ -43,31 +43,6 @@ fn size_loss_gradient() {
             }
         }
     }
-}
-
-/// Seed points on the unit sphere coloured by its texture (what SfM would
-/// give on the generated scene).
-pub fn sphere_points(n: usize, seed: u64) -> PointCloud {
-    use rand::RngExt;
-    let mut r = seeded(seed);
-    let mut pc = PointCloud::default();
-    let mut colors = Vec::new();
-    for _ in 0..n {
-        let p = loop {
-            let q = DVec3::new(
-                r.random_range(-1.0..1.0),
-                r.random_range(-1.0..1.0),
-                r.random_range(-1.0..1.0),
-            );
-            if q.length() > 0.1 && q.length() <= 1.0 {
-                break q.normalize();
-            }
-        };
-        pc.positions.push(p.as_vec3().to_array());
-        colors.push(sphere_texture(p).map(|v| (v * 255.0) as u8));
-    }
-    pc.colors = Some(colors);
-    pc
 }
 
 /// Training on the generated sphere at 64² from 24 cameras raises the
