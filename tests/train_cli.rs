@@ -27,9 +27,9 @@ fn train(model: &str, data: &Path, out: &Path, extra: &[&str]) -> std::process::
         "-o",
         p(out),
         "--iterations",
-        "40",
+        "450",
         "--eval-every",
-        "20",
+        "200",
         "-q",
     ];
     if model == "gaussians" {
@@ -44,18 +44,19 @@ fn train(model: &str, data: &Path, out: &Path, extra: &[&str]) -> std::process::
 fn files(model: &str) -> Vec<&'static str> {
     let mut f = vec!["checkpoint/optimizer.bin", "checkpoint/model.ply"];
     if model == "gaussians" {
-        f.push("point_cloud/iteration_40/point_cloud.ply");
+        f.push("point_cloud/iteration_450/point_cloud.ply");
     } else {
-        f.push("point_cloud/iteration_40/point_cloud_state_dict.pt");
-        f.push("point_cloud/iteration_40/triangles.ply");
+        f.push("point_cloud/iteration_450/point_cloud_state_dict.pt");
+        f.push("point_cloud/iteration_450/triangles.ply");
     }
     f
 }
 
 /// Same seed and thread count → identical checkpoint bytes (and, the
 /// rasterisers and reductions being thread-count independent, also across
-/// 1 and 2 threads); a run stopped at iteration 20 and resumed equals the
-/// uninterrupted one, byte for byte.
+/// 1 and 2 threads); a run stopped at iteration 210 (after the first
+/// densification at 200) and resumed equals the uninterrupted one, byte for
+/// byte.
 #[test]
 fn deterministic_and_resume_exact() {
     let dir = tempfile::tempdir().unwrap();
@@ -66,11 +67,11 @@ fn deterministic_and_resume_exact() {
         let c = dir.path().join(format!("{model}_c"));
         succeeds(&train(model, &d, &a, &["-j", "2"]));
         succeeds(&train(model, &d, &b, &["-j", "1"]));
-        succeeds(&train(model, &d, &c, &["-j", "2", "--stop-at", "20"]));
+        succeeds(&train(model, &d, &c, &["-j", "2", "--stop-at", "210"]));
         assert!(c.join("checkpoint/optimizer.bin").is_file());
         succeeds(&train(model, &d, &c, &["-j", "2", "--resume", p(&c)]));
         for f in files(model) {
-            let want = std::fs::read(a.join(f)).unwrap();
+            let want = std::fs::read(a.join(f)).unwrap_or_else(|e| panic!("{model} {f}: {e}"));
             assert_eq!(
                 want,
                 std::fs::read(b.join(f)).unwrap(),
@@ -93,7 +94,7 @@ fn deterministic_and_resume_exact() {
             .iter()
             .map(|e| e["iteration"].as_u64().unwrap())
             .collect();
-        assert_eq!(its, vec![0, 20, 40], "{model}");
+        assert_eq!(its, vec![0, 200, 400, 450], "{model}");
     }
 }
 
@@ -108,8 +109,8 @@ fn outputs_are_read_by_other_tools() {
     succeeds(&train("triangles", &d, &t, &[]));
     succeeds(&train("gaussians", &d, &g, &[]));
     for f in [
-        "point_cloud/iteration_40/point_cloud_state_dict.pt",
-        "point_cloud/iteration_40/triangles.ply",
+        "point_cloud/iteration_450/point_cloud_state_dict.pt",
+        "point_cloud/iteration_450/triangles.ply",
     ] {
         succeeds(&run("info", &[p(&t.join(f))], None));
     }
@@ -175,7 +176,7 @@ fn bad_input_is_refused_and_nothing_is_written() {
         before,
         std::fs::read(t.join("checkpoint/optimizer.bin")).unwrap()
     );
-    assert!(t.join("point_cloud/iteration_40/triangles.ply").is_file());
+    assert!(t.join("point_cloud/iteration_450/triangles.ply").is_file());
     // other settings
     fails(
         &train(

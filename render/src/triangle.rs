@@ -41,7 +41,7 @@ use crate::Camera;
 use crate::dual::{Real, cross3, dot3, sh_rgb};
 use crate::gaussian::{RasterSettings, RenderOutput, rotation_rows};
 use crate::sh::coeff_count;
-use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels, tile_rect_cuda};
+use crate::tiles::{TILE, TileLists, tile_pixels, tile_rect_cuda};
 
 /// Triangles as the rasteriser wants them: activated values.
 #[derive(Clone, Debug, Default)]
@@ -330,6 +330,10 @@ pub struct TriangleState {
     pub expected_depth: Vec<f32>,
     /// Per pixel, Σ w (= 1 − T up to rounding), 0 where nothing was blended.
     pub weight_sum: Vec<f32>,
+    /// Per triangle (indexed like the input), the largest blending weight
+    /// α·T it added to any pixel (the kernel's `max_blending`, Triangle
+    /// Splatting's importance); 0 where it added nothing.
+    pub max_weight: Vec<f32>,
 }
 
 /// Renders `t` from `cam`.
@@ -368,17 +372,26 @@ pub fn rasterize(
     let mut final_t = vec![1.0f32; w * h];
     let mut lastv = vec![0u32; w * h];
     let mut weight_sum = vec![0.0f32; w * h];
-    render_tiles(
-        tw,
-        th,
-        w,
-        h,
-        |ti| {
-            tile_pixels(ti, tw, w, h)
-                .map(|(x, y)| shade(&proj, tiles.list(ti), x, y, s))
-                .collect()
-        },
-        |o, px| {
+    let mut max_weight = vec![0.0f32; t.len()];
+    // per tile: its pixels, and per list entry the largest weight it added
+    let done: Vec<(Vec<Shaded>, Vec<f32>)> = (0..tw * th)
+        .into_par_iter()
+        .map(|ti| {
+            let list = tiles.list(ti);
+            let mut best = vec![0.0f32; list.len()];
+            let px = tile_pixels(ti, tw, w, h)
+                .map(|(x, y)| shade(&proj, list, x, y, s, &mut best))
+                .collect();
+            (px, best)
+        })
+        .collect();
+    for (ti, (pixels, best)) in done.into_iter().enumerate() {
+        for (&pi, b) in tiles.list(ti).iter().zip(best) {
+            let id = proj[pi as usize].id as usize;
+            max_weight[id] = max_weight[id].max(b);
+        }
+        for ((x, y), px) in tile_pixels(ti, tw, w, h).zip(pixels) {
+            let o = y * w + x;
             out.rgb[o] = px.rgb;
             out.alpha[o] = 1.0 - px.final_t;
             out.expected_depth[o] = px.expected_depth;
@@ -389,8 +402,8 @@ pub fn rasterize(
             final_t[o] = px.final_t;
             lastv[o] = px.last;
             weight_sum[o] = px.weight_sum;
-        },
-    );
+        }
+    }
     let state = TriangleState {
         proj,
         tiles,
@@ -398,6 +411,7 @@ pub fn rasterize(
         last: lastv,
         expected_depth: out.expected_depth.clone(),
         weight_sum,
+        max_weight,
     };
     (out, state)
 }
@@ -417,7 +431,15 @@ struct Shaded {
 }
 
 /// Blends the tile list `list` front to back at pixel (x, y).
-fn shade(proj: &[ProjectedTri], list: &[u32], x: usize, y: usize, s: &RasterSettings) -> Shaded {
+/// `best[li]` is raised to each added weight α·T of list entry `li`.
+fn shade(
+    proj: &[ProjectedTri],
+    list: &[u32],
+    x: usize,
+    y: usize,
+    s: &RasterSettings,
+    best: &mut [f32],
+) -> Shaded {
     let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
     let mut tr = 1.0f32;
     let mut c = [0.0f32; 3];
@@ -437,6 +459,7 @@ fn shade(proj: &[ProjectedTri], list: &[u32], x: usize, y: usize, s: &RasterSett
             break;
         }
         let wgt = alpha * tr;
+        best[li] = best[li].max(wgt);
         for k in 0..3 {
             c[k] += p.rgb[k] * wgt;
             nsum[k] += p.normal[k] * wgt;

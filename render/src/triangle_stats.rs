@@ -10,16 +10,15 @@
 //!   3-D centroid, in pixels (the kernel's `image_size`, which it stores as
 //!   ceil(R); 0 when culled).
 //!
-//! Indexed by triangle (not by projected entry). The pixel walk repeats the
-//! forward blending rule exactly (same skips, same early stop), so a triangle
-//! has importance > 0 exactly where it coloured some pixel.
+//! Indexed by triangle (not by projected entry). The importance is the
+//! forward pass's [`TriangleState::max_weight`] (weights of the
+//! contributions it added, so > 0 exactly where it coloured some pixel).
 
 use rayon::prelude::*;
 
 use crate::Camera;
 use crate::gaussian::RasterSettings;
-use crate::tiles::tile_pixels;
-use crate::triangle::{TriangleState, Triangles3, window};
+use crate::triangle::{TriangleState, Triangles3};
 
 /// See the module docs.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -37,42 +36,12 @@ pub fn triangle_stats(
     state: &TriangleState,
 ) -> TriangleStats {
     let n = t.len();
-    let (w, h) = (cam.width as usize, cam.height as usize);
-    let tw = state.tiles.tiles_x;
     let proj = &state.proj;
-    let per_tile: Vec<Vec<f32>> = (0..state.tiles.len())
-        .into_par_iter()
-        .map(|ti| {
-            let list = state.tiles.list(ti);
-            let mut best = vec![0.0f32; list.len()];
-            for (x, y) in tile_pixels(ti, tw, w, h) {
-                let o = y * w + x;
-                let last = state.last[o] as usize;
-                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                let mut tr = 1.0f32;
-                for (li, &pi) in list[..last].iter().enumerate() {
-                    let p = &proj[pi as usize];
-                    let Some((win, _, _)) = window(p, px, py) else {
-                        continue;
-                    };
-                    let alpha = (p.opacity * win).min(0.99);
-                    if alpha < 1.0 / 255.0 {
-                        continue;
-                    }
-                    best[li] = best[li].max(alpha * tr);
-                    tr *= 1.0 - alpha;
-                }
-            }
-            best
-        })
-        .collect();
-    let mut importance = vec![0.0f32; n];
-    for (ti, best) in per_tile.iter().enumerate() {
-        for (&pi, &b) in state.tiles.list(ti).iter().zip(best) {
-            let id = proj[pi as usize].id as usize;
-            importance[id] = importance[id].max(b);
-        }
-    }
+    let importance = if state.max_weight.len() == n {
+        state.max_weight.clone()
+    } else {
+        vec![0.0; n]
+    };
     let mut inradius = vec![0.0f32; n];
     let mut radius = vec![0.0f32; n];
     let sizes: Vec<(usize, f32)> = proj
