@@ -30,10 +30,10 @@ for mode in none density; do
 done
 {
     for r in tri gs_none gs_density; do
-        python3 - "$OUT/$r/metrics.json" "$r" "$OUT/$r.time" "$OUT/${r/#gs_none/gs_none}" <<'PY'
+        python3 - "$OUT/$r/metrics.json" "$r" "$OUT/$r.time" <<'PY'
 import json, sys
 m = json.load(open(sys.argv[1])); e0, e1 = m["evals"][0], m["evals"][-1]
-t = open(sys.argv[3].replace("/tri.time", "/tri.time")).read().strip() if sys.argv[3] else ""
+t = open(sys.argv[3]).read().strip()
 print(json.dumps({"run": sys.argv[2], "iterations": m["iterations"], "primitives": m["primitives"],
                   "psnr": [round(e0["psnr"], 2), round(e1["psnr"], 2)], "ssim": [round(e0["ssim"], 4), round(e1["ssim"], 4)],
                   "it_per_s": round(m["iterations_per_second"], 2), "time": t}))

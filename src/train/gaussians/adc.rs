@@ -129,6 +129,7 @@ fn push_copy(g: &mut Gaussians, i: usize, mean: [f32; 3], log_scales: [f32; 3]) 
     }
 }
 
+#[allow(clippy::needless_range_loop)] // parallel arrays of the model, indexed together
 /// One densify-and-prune step; `big`: apply the screen/world size prune.
 /// Returns the row sources of the edited model and resets the statistics.
 pub fn densify_and_prune(

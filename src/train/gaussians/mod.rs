@@ -36,6 +36,7 @@
 pub mod adc;
 pub mod init;
 
+use rayon::prelude::*;
 use splatkit_render::depth_normal::normal_consistency;
 use splatkit_render::gaussian::{Gaussians3, RasterSettings, rasterize, render};
 use splatkit_render::gaussian_grad::{self, AuxGrads, GaussianGrads};
@@ -293,6 +294,8 @@ impl GaussianTrainer {
         let psnr = psnr_of(&img.rgb, view);
         let n = self.model.len();
         let mut reg = RawGrads::zeros(n);
+        // (a zero set when no regulariser is on: a few MB, cheaper than
+        // branching every gradient)
         let mut reg_loss = 0.0;
         let (mut d_depth, mut d_normal) = (None::<Vec<f32>>, None::<Vec<[f32; 3]>>);
         // SuGaR: entropy between 7,000 and 9,000
@@ -309,7 +312,7 @@ impl GaussianTrainer {
             }
             if let Some(nbrs) = &self.nbrs {
                 let cand = visible_candidates(&self.model, cam, &img.expected_depth, 2.0);
-                let mut rng = stream(p.seed ^ 0x5375_4761_52, self.iteration);
+                let mut rng = stream(p.seed ^ 0x0053_7547_6152, self.iteration);
                 let samples = sample_points(&self.model, &cand, p.samples, &mut rng);
                 match mode {
                     Regularize::Density | Regularize::DnConsistency => {
@@ -372,28 +375,43 @@ impl GaussianTrainer {
         let n = m.len();
         let k = m.rest_per_channel();
         let nc = coeff_count(d.min(m.sh_degree));
-        let mut g_means = gg.means.clone();
-        let mut g_dc = vec![[0.0f32; 3]; n];
+        let add = |a: &[[f32; 3]], b: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            a.par_iter()
+                .zip(b)
+                .map(|(x, y)| [x[0] + y[0], x[1] + y[1], x[2] + y[2]])
+                .collect()
+        };
+        let mut g_means = add(&gg.means, &reg.means);
+        let mut g_dc: Vec<[f32; 3]> = (0..n).into_par_iter().map(|i| gg.sh[i * nc]).collect();
         let mut g_rest = vec![0.0f32; n * k * 3];
-        let mut g_o = vec![0.0f32; n];
-        let mut g_s = vec![[0.0f32; 3]; n];
-        let mut g_r = gg.rotations.clone();
-        for i in 0..n {
-            g_dc[i] = gg.sh[i * nc];
-            for kk in 1..nc {
-                let o = (i * k + kk - 1) * 3;
-                g_rest[o..o + 3].copy_from_slice(&gg.sh[i * nc + kk]);
-            }
-            let a = sigmoid(m.opacity_logits[i]);
-            g_o[i] = gg.opacities[i] * a * (1.0 - a) + reg.opacity_logits[i];
-            for j in 0..3 {
-                g_s[i][j] = gg.scales[i][j] * m.log_scales[i][j].exp() + reg.log_scales[i][j];
-                g_means[i][j] += reg.means[i][j];
-            }
-            for j in 0..4 {
-                g_r[i][j] += reg.rotations[i][j];
-            }
+        if k > 0 {
+            g_rest.par_chunks_mut(k * 3).enumerate().for_each(|(i, r)| {
+                for kk in 1..nc {
+                    r[(kk - 1) * 3..kk * 3].copy_from_slice(&gg.sh[i * nc + kk]);
+                }
+            });
         }
+        let g_o: Vec<f32> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let a = sigmoid(m.opacity_logits[i]);
+                gg.opacities[i] * a * (1.0 - a) + reg.opacity_logits[i]
+            })
+            .collect();
+        let mut g_s: Vec<[f32; 3]> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                std::array::from_fn(|j| {
+                    gg.scales[i][j] * m.log_scales[i][j].exp() + reg.log_scales[i][j]
+                })
+            })
+            .collect();
+        let mut g_r: Vec<[f32; 4]> = gg
+            .rotations
+            .par_iter()
+            .zip(&reg.rotations)
+            .map(|(a, b)| std::array::from_fn(|j| a[j] + b[j]))
+            .collect();
         self.groups.step(0, flat(&mut m.means), flat(&mut g_means));
         self.groups.step(1, flat(&mut m.sh_dc), flat(&mut g_dc));
         self.groups.step(2, &mut m.sh_rest, &g_rest);
@@ -411,7 +429,7 @@ impl GaussianTrainer {
         if it < p.densify_until() {
             if it > p.at(500) && it.is_multiple_of(p.at(100)) {
                 let big = it > p.at(3_000);
-                let mut rng = stream(p.seed ^ 0x4144_43, it);
+                let mut rng = stream(p.seed ^ 0x0041_4443, it);
                 let src = densify_and_prune(&mut self.model, &mut self.adc, &p.adc, big, &mut rng);
                 self.groups.remap(&src);
             }

@@ -96,7 +96,8 @@ pub(super) fn geometry(g: &Gaussians) -> Vec<Geo> {
 /// geometry: `∂/∂log s = s·∂/∂s`, `∂/∂logit = α(1−α)·∂/∂α`, and the
 /// quaternion through the Jacobian of `R(q/‖q‖)` (forward-mode duals).
 pub(super) fn to_raw(g: &Gaussians, geo: &[Geo], acc: &[GeoGrad]) -> RawGrads {
-    let per: Vec<([f32; 3], [f32; 3], [f32; 4], f32)> = (0..geo.len())
+    type PerGaussian = ([f32; 3], [f32; 3], [f32; 4], f32);
+    let per: Vec<PerGaussian> = (0..geo.len())
         .into_par_iter()
         .map(|i| {
             let a = &acc[i];

@@ -38,11 +38,12 @@
 pub mod init;
 pub mod mcmc;
 
+use rayon::prelude::*;
 use splatkit_render::depth_normal::normal_consistency;
 use splatkit_render::gaussian::RasterSettings;
 use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
-use splatkit_render::triangle::{rasterize, render};
+use splatkit_render::triangle::{Triangles3, rasterize, render};
 use splatkit_render::triangle_grad::{self, AuxGrads, TriangleGrads};
 use splatkit_render::triangle_stats::triangle_stats;
 
@@ -127,6 +128,31 @@ impl TriangleParams {
     /// A milestone of the reference schedule scaled to this run.
     pub fn at(&self, milestone: u64) -> u64 {
         scaled(milestone, self.iterations)
+    }
+}
+
+/// The rasteriser's triangles at the soup's active SH degree: the values of
+/// [`TriangleSoup::to_raster`], built in parallel without a buffer per
+/// triangle.
+pub fn raster(soup: &TriangleSoup) -> Triangles3 {
+    let n = soup.len();
+    let d = soup.active_sh_degree.min(soup.sh_degree);
+    let keep = (d + 1) * (d + 1);
+    let k = soup.rest_per_channel();
+    let mut sh = vec![[0.0f32; 3]; n * keep];
+    sh.par_chunks_mut(keep).enumerate().for_each(|(i, c)| {
+        c[0] = soup.sh_dc[i];
+        for (kk, ck) in c.iter_mut().enumerate().skip(1) {
+            let o = (i * k + kk - 1) * 3;
+            *ck = [soup.sh_rest[o], soup.sh_rest[o + 1], soup.sh_rest[o + 2]];
+        }
+    });
+    Triangles3 {
+        vertices: soup.triangles.clone(),
+        sigmas: (0..n).into_par_iter().map(|i| soup.sigma(i)).collect(),
+        opacities: (0..n).into_par_iter().map(|i| soup.opacity(i)).collect(),
+        sh,
+        sh_degree: d,
     }
 }
 
@@ -275,7 +301,7 @@ impl TriangleTrainer {
         let vi = view_at(train, p.seed, self.iteration);
         let view = &views[vi];
         self.soup.active_sh_degree = self.active_degree();
-        let t3 = self.soup.to_raster();
+        let t3 = raster(&self.soup);
         let s = self.settings();
         let (img, state) = rasterize(&t3, &view.camera, &s);
         let (photo, d_rgb) = loss_and_grad_weighted(&img.rgb, view, 1.0 - p.lambda_dssim);
@@ -310,12 +336,12 @@ impl TriangleTrainer {
         let n = self.soup.len();
         let nf = n.max(1) as f64;
         // λ_o · mean(opacity)
-        let mean_o = (0..n).map(|i| self.soup.opacity(i) as f64).sum::<f64>() / nf;
+        let mean_o = t3.opacities.iter().map(|&o| o as f64).sum::<f64>() / nf;
         loss += p.lambda_opacity * mean_o;
-        for (i, g) in g_o.iter_mut().enumerate() {
-            let o = self.soup.opacity(i) as f64;
+        g_o.par_iter_mut().zip(&t3.opacities).for_each(|(g, &o)| {
+            let o = o as f64;
             *g += (p.lambda_opacity / nf * o * (1.0 - o)) as f32;
-        }
+        });
         // λ_size / mean(area) while densifying
         if self.iteration + 1 < p.at(25_000) {
             loss += size_loss(&self.soup.triangles, p.lambda_size, &mut gv);
@@ -366,22 +392,26 @@ impl TriangleTrainer {
         let n = self.soup.len();
         let k = self.soup.rest_per_channel();
         let nc = coeff_count(self.soup.active_sh_degree.min(self.soup.sh_degree));
-        let mut dc = vec![[0.0f32; 3]; n];
+        // SH: coefficient 0 → DC, 1.. → rest (bands above the active degree
+        // get no gradient)
+        let dc: Vec<[f32; 3]> = (0..n).into_par_iter().map(|i| g.sh[i * nc]).collect();
         let mut rest = vec![0.0f32; n * k * 3];
-        for i in 0..n {
-            dc[i] = g.sh[i * nc];
-            for kk in 1..nc {
-                let o = (i * k + kk - 1) * 3;
-                rest[o..o + 3].copy_from_slice(&g.sh[i * nc + kk]);
-            }
+        if k > 0 {
+            rest.par_chunks_mut(k * 3).enumerate().for_each(|(i, r)| {
+                for kk in 1..nc {
+                    r[(kk - 1) * 3..kk * 3].copy_from_slice(&g.sh[i * nc + kk]);
+                }
+            });
         }
         let o: Vec<f32> = (0..n)
+            .into_par_iter()
             .map(|i| {
                 let a = sigmoid(self.soup.opacity_raw[i]);
                 g.opacities[i] * a * (1.0 - a)
             })
             .collect();
         let s: Vec<f32> = (0..n)
+            .into_par_iter()
             .map(|i| g.sigmas[i] * self.soup.sigma_raw[i].exp())
             .collect();
         (g.vertices.clone(), dc, rest, o, s)
@@ -430,7 +460,7 @@ impl TriangleTrainer {
     pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
         let mut soup = self.soup.clone();
         soup.active_sh_degree = self.active_degree();
-        let t3 = soup.to_raster();
+        let t3 = raster(&soup);
         let s = self.settings();
         evaluate(views, test, self.iteration, |v| {
             render(&t3, &v.camera, &s).rgb
