@@ -231,3 +231,38 @@ pub fn write_sphere_dataset(
     }
     Ok(())
 }
+
+/// Distance of a mesh to the unit sphere, independent of any reconstruction
+/// code: (accuracy, completeness) = (mean | |p| − 1 | over ~200,000 points
+/// sampled uniformly by area on the mesh, mean distance from 20,000
+/// Fibonacci points on the sphere to the nearest of those samples).
+pub fn sphere_mesh_distance(m: &Mesh) -> crate::Result<(f64, f64)> {
+    use crate::geom::knn::NnIndex;
+    use crate::geom::sample::sample_area_uniform;
+    let v: Vec<[f64; 3]> = m.vertices.iter().map(|p| p.map(f64::from)).collect();
+    let area: f64 = m
+        .faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| DVec3::from_array(v[i as usize]));
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let pts = sample_area_uniform(&v, &m.faces, 200_000.0 / area.max(1e-9), 1)?;
+    let accuracy = pts
+        .iter()
+        .map(|p| (DVec3::from_array(*p).length() - 1.0).abs())
+        .sum::<f64>()
+        / pts.len().max(1) as f64;
+    let n = 20_000;
+    let sphere: Vec<[f64; 3]> = (0..n)
+        .map(|k| {
+            let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let a = k as f64 * 2.399_963_229_728_653;
+            let s = (1.0 - y * y).sqrt();
+            [s * a.cos(), y, s * a.sin()]
+        })
+        .collect();
+    let comp = NnIndex::new(&pts)?.nearest_distances(&sphere);
+    Ok((accuracy, comp.iter().sum::<f64>() / n as f64))
+}
