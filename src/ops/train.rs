@@ -109,6 +109,11 @@ pub struct DataArgs {
     /// White background (also the colour transparent photos are put on).
     #[arg(long)]
     pub white_background: bool,
+    /// A random background colour every iteration (photos with an alpha
+    /// channel, e.g. NeRF synthetic, are put on it; evaluation uses the
+    /// fixed background).
+    #[arg(long)]
+    pub random_background: bool,
     /// Hold out every N-th view (camera order, from the first); 0 = none.
     #[arg(long, default_value_t = 8)]
     pub test_every: usize,
@@ -535,6 +540,7 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     params.game_engine = args.game_engine;
     params.mcmc.max_shapes = args.max_shapes;
     params.background = background(a);
+    params.random_background = a.random_background;
     params.seed = a.seed;
     let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
         "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(), "dome": args.dome,
@@ -610,6 +616,7 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
     params.samples = args.samples;
     params.background = background(a);
     params.white_background = a.white_background;
+    params.random_background = a.random_background;
     params.seed = a.seed;
     let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
         "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(),

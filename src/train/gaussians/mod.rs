@@ -46,7 +46,9 @@ use splatkit_render::sh::coeff_count;
 use self::adc::{AdcParams, AdcState, densify_and_prune, reset_opacity};
 use super::checkpoint::GroupState;
 use super::groups::{GroupSpec, Groups, Source, kept};
-use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of};
+use super::photometric::{
+    Eval, evaluate, loss_and_grad_weighted, psnr_of, random_background, recomposite,
+};
 use super::schedule::view_at;
 use super::sugar::{
     Neighbours, RawGrads, SUGAR_K, SdfParams, density_regularizer, entropy, sample_points,
@@ -81,6 +83,10 @@ pub struct GaussianParams {
     /// Regulariser samples per iteration.
     pub samples: usize,
     pub background: [f32; 3],
+    /// A random background colour every iteration (photos with alpha are
+    /// put on it; 3DGS's `--random_background`).
+    #[serde(default)]
+    pub random_background: bool,
     /// White background: also reset opacities at the start of densification.
     pub white_background: bool,
     pub seed: u64,
@@ -106,6 +112,7 @@ impl GaussianParams {
             },
             samples: 50_000,
             background: [0.0; 3],
+            random_background: false,
             white_background: false,
             seed: 0,
         }
@@ -284,11 +291,18 @@ impl GaussianTrainer {
         let p = self.params.clone();
         let it1 = self.iteration + 1; // the reference's 1-based iteration
         let vi = view_at(train, p.seed, self.iteration);
-        let view = &views[vi];
+        let mut s = self.settings();
+        let recomposited;
+        let view = if p.random_background {
+            s.background = random_background(p.seed, self.iteration);
+            recomposited = recomposite(&views[vi], p.background, s.background);
+            &recomposited
+        } else {
+            &views[vi]
+        };
         let cam = &view.camera;
         let d = self.active_degree();
         let g3 = raster(&self.model, d);
-        let s = self.settings();
         let (img, state) = rasterize(&g3, cam, &s);
         let (photo, d_rgb) = loss_and_grad_weighted(&img.rgb, view, 1.0 - p.lambda_dssim);
         let psnr = psnr_of(&img.rgb, view);

@@ -50,7 +50,9 @@ use splatkit_render::triangle_stats::triangle_stats;
 use self::mcmc::{McmcParams, McmcState};
 use super::checkpoint::GroupState;
 use super::groups::{GroupSpec, Groups, Source};
-use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of};
+use super::photometric::{
+    Eval, evaluate, loss_and_grad_weighted, psnr_of, random_background, recomposite,
+};
 use super::schedule::view_at;
 use crate::model::gaussians::sigmoid;
 use crate::model::rng::stream;
@@ -93,6 +95,10 @@ pub struct TriangleParams {
     pub game_engine: bool,
     pub mcmc: McmcParams,
     pub background: [f32; 3],
+    /// A random background colour every iteration (photos with alpha are
+    /// put on it; 3DGS's `--random_background`).
+    #[serde(default)]
+    pub random_background: bool,
     pub seed: u64,
 }
 
@@ -121,6 +127,7 @@ impl TriangleParams {
                 ..Default::default()
             },
             background: [0.0; 3],
+            random_background: false,
             seed: 0,
         }
     }
@@ -299,10 +306,17 @@ impl TriangleTrainer {
     pub fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let p = self.params.clone();
         let vi = view_at(train, p.seed, self.iteration);
-        let view = &views[vi];
+        let mut s = self.settings();
+        let recomposited;
+        let view = if p.random_background {
+            s.background = random_background(p.seed, self.iteration);
+            recomposited = recomposite(&views[vi], p.background, s.background);
+            &recomposited
+        } else {
+            &views[vi]
+        };
         self.soup.active_sh_degree = self.active_degree();
         let t3 = raster(&self.soup);
-        let s = self.settings();
         let (img, state) = rasterize(&t3, &view.camera, &s);
         let (photo, d_rgb) = loss_and_grad_weighted(&img.rgb, view, 1.0 - p.lambda_dssim);
         let psnr = psnr_of(&img.rgb, view);
