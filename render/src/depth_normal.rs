@@ -287,10 +287,10 @@ mod tests {
         let ns: Vec<[f32; 3]> = alpha.iter().map(|&a| [0.0, 0.0, -a]).collect();
         let (l, _, _) = normal_consistency(&ns, &depth, &alpha, &cam);
         let mut want = 0.0;
-        for i in 0..30 {
+        for (i, &al) in alpha.iter().enumerate() {
             let (x, y) = (i % 6, i / 6);
             let interior = x > 0 && y > 0 && x < 5 && y < 4;
-            let a = alpha[i] as f64;
+            let a = al as f64;
             want += if interior { 1.0 - a * a } else { 1.0 };
         }
         assert!((l - want / 30.0).abs() < 1e-7, "{l} vs {}", want / 30.0);
