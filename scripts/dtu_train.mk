@@ -19,6 +19,7 @@ TRI_ITERS  ?= 30000
 GS_ITERS   ?= 15000
 MAX_SHAPES ?= 500000
 REG        ?= density
+INIT_POINTS ?= 100000
 SEED       ?= 0
 SPLATKIT   ?= cargo run --release --quiet --bin splatkit --
 TIME       := /usr/bin/time -f '%e s, %M KiB'
@@ -31,12 +32,12 @@ $(OUT)/triangles/metrics.json:
 	@mkdir -p $(OUT)
 	$(TIME) -o $(OUT)/triangles.time $(SPLATKIT) train triangles $(DATA) -o $(OUT)/triangles --indoor \
 	    --iterations $(TRI_ITERS) --max-shapes $(MAX_SHAPES) --downscale $(DOWNSCALE) --masks \
-	    --seed $(SEED) --quiet
+	    --init-points $(INIT_POINTS) --seed $(SEED) --quiet
 
 $(OUT)/gaussians/metrics.json:
 	@mkdir -p $(OUT)
 	$(TIME) -o $(OUT)/gaussians.time $(SPLATKIT) train gaussians $(DATA) -o $(OUT)/gaussians \
-	    --regularize $(REG) --iterations $(GS_ITERS) --downscale $(DOWNSCALE) --masks --seed $(SEED) --quiet
+	    --regularize $(REG) --iterations $(GS_ITERS) --downscale $(DOWNSCALE) --masks --init-points $(INIT_POINTS) --seed $(SEED) --quiet
 
 $(OUT)/triangles_mesh.ply: $(OUT)/triangles/metrics.json
 	$(TIME) -o $(OUT)/triangles_mesh.time $(SPLATKIT) tsdf-fuse \
