@@ -122,6 +122,29 @@ impl NnIndex {
     }
 }
 
+/// Per point, the mean squared distance to its 3 nearest *other* points
+/// (a duplicate counts, at distance 0), clamped at 1e-7: simple-knn's
+/// `distCUDA2`, which 3DGS and Triangle Splatting size their initial
+/// primitives from. Errors on a non-finite point.
+pub fn mean_sq_dist_3nn(points: &[[f64; 3]]) -> Result<Vec<f64>> {
+    let index = NnIndex::new(points)?;
+    let k = 4.min(points.len());
+    Ok(points
+        .par_iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let d2: Vec<f64> = index
+                .k_nearest(q, k)
+                .into_iter()
+                .filter(|&j| j != i)
+                .take(3)
+                .map(|j| (0..3).map(|c| (points[j][c] - q[c]).powi(2)).sum::<f64>())
+                .collect();
+            (d2.iter().sum::<f64>() / d2.len().max(1) as f64).max(1e-7)
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -193,6 +193,23 @@ pub fn gather_rows(
     out
 }
 
+/// Splits the rasteriser's SH gradient (`nc` coefficients per primitive,
+/// coefficient-major, DC first) into the DC gradient and the `k`-per-channel
+/// rest layout of the models (bands above the active degree get zero).
+pub fn split_sh_grad(sh: &[[f32; 3]], n: usize, nc: usize, k: usize) -> (Vec<[f32; 3]>, Vec<f32>) {
+    use rayon::prelude::*;
+    let dc: Vec<[f32; 3]> = (0..n).into_par_iter().map(|i| sh[i * nc]).collect();
+    let mut rest = vec![0.0f32; n * k * 3];
+    if k > 0 {
+        rest.par_chunks_mut(k * 3).enumerate().for_each(|(i, r)| {
+            for kk in 1..nc {
+                r[(kk - 1) * 3..kk * 3].copy_from_slice(&sh[i * nc + kk]);
+            }
+        });
+    }
+    (dc, rest)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

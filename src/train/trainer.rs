@@ -32,54 +32,37 @@ pub trait Trainer {
     fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String>;
 }
 
-impl Trainer for super::triangles::TriangleTrainer {
-    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
-        let s = self.step(views, train);
-        Progress {
-            loss: s.loss,
-            psnr: s.psnr,
-            count: s.count,
+/// The two trainers expose the same inherent methods; `$count` names the
+/// model field whose length is the primitive count (`$model`).
+macro_rules! impl_trainer {
+    ($t:ty, $model:ident) => {
+        impl Trainer for $t {
+            fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
+                let s = self.step(views, train);
+                Progress {
+                    loss: s.loss,
+                    psnr: s.psnr,
+                    count: s.count,
+                }
+            }
+            fn eval(&self, views: &[View], test: &[usize]) -> Eval {
+                self.evaluate(views, test)
+            }
+            fn iterations_done(&self) -> u64 {
+                self.iteration()
+            }
+            fn count(&self) -> usize {
+                self.$model.len()
+            }
+            fn state(&self) -> (u64, Vec<GroupState>) {
+                self.optimizer_state()
+            }
+            fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+                self.restore(step, groups)
+            }
         }
-    }
-    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
-        self.evaluate(views, test)
-    }
-    fn iterations_done(&self) -> u64 {
-        self.iteration()
-    }
-    fn count(&self) -> usize {
-        self.soup.len()
-    }
-    fn state(&self) -> (u64, Vec<GroupState>) {
-        self.optimizer_state()
-    }
-    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
-        self.restore(step, groups)
-    }
+    };
 }
 
-impl Trainer for super::gaussians::GaussianTrainer {
-    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
-        let s = self.step(views, train);
-        Progress {
-            loss: s.loss,
-            psnr: s.psnr,
-            count: s.count,
-        }
-    }
-    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
-        self.evaluate(views, test)
-    }
-    fn iterations_done(&self) -> u64 {
-        self.iteration()
-    }
-    fn count(&self) -> usize {
-        self.model.len()
-    }
-    fn state(&self) -> (u64, Vec<GroupState>) {
-        self.optimizer_state()
-    }
-    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
-        self.restore(step, groups)
-    }
-}
+impl_trainer!(super::triangles::TriangleTrainer, soup);
+impl_trainer!(super::gaussians::GaussianTrainer, model);

@@ -9,7 +9,7 @@
 
 use rand::RngExt;
 
-use crate::geom::knn::NnIndex;
+use crate::geom::knn::mean_sq_dist_3nn;
 use crate::model::gaussians::logit;
 use crate::model::rng::Rng;
 use crate::model::{Gaussians, PointCloud};
@@ -42,21 +42,9 @@ pub fn init_gaussians(points: &PointCloud, sh_degree: usize) -> Result<Gaussians
         )));
     }
     let p64: Vec<[f64; 3]> = points.positions.iter().map(|q| q.map(f64::from)).collect();
-    let tree = NnIndex::new(&p64)?;
-    let log_scales = p64
-        .iter()
-        .enumerate()
-        .map(|(i, q)| {
-            let d2: Vec<f64> = tree
-                .k_nearest(q, 4)
-                .into_iter()
-                .filter(|&j| j != i)
-                .take(3)
-                .map(|j| (0..3).map(|k| (p64[j][k] - q[k]).powi(2)).sum::<f64>())
-                .collect();
-            let msd = (d2.iter().sum::<f64>() / d2.len().max(1) as f64).max(1e-7);
-            [(msd.sqrt().ln()) as f32; 3]
-        })
+    let log_scales = mean_sq_dist_3nn(&p64)?
+        .into_iter()
+        .map(|msd| [(msd.sqrt().ln()) as f32; 3])
         .collect();
     let rgb: Vec<[f32; 3]> = match &points.colors {
         Some(c) => c.iter().map(|c| c.map(|v| v as f32 / 255.0)).collect(),

@@ -44,8 +44,8 @@ use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
 
 use self::adc::{AdcParams, AdcState, densify_and_prune, reset_opacity};
-use super::checkpoint::GroupState;
-use super::groups::{GroupSpec, Groups, Source, kept};
+use super::checkpoint::{GroupState, find_values};
+use super::groups::{GroupSpec, Groups, Source, kept, split_sh_grad};
 use super::photometric::{
     Eval, evaluate, loss_and_grad_weighted, psnr_of, random_background, recomposite,
 };
@@ -396,15 +396,7 @@ impl GaussianTrainer {
                 .collect()
         };
         let mut g_means = add(&gg.means, &reg.means);
-        let mut g_dc: Vec<[f32; 3]> = (0..n).into_par_iter().map(|i| gg.sh[i * nc]).collect();
-        let mut g_rest = vec![0.0f32; n * k * 3];
-        if k > 0 {
-            g_rest.par_chunks_mut(k * 3).enumerate().for_each(|(i, r)| {
-                for kk in 1..nc {
-                    r[(kk - 1) * 3..kk * 3].copy_from_slice(&gg.sh[i * nc + kk]);
-                }
-            });
-        }
+        let (mut g_dc, g_rest) = split_sh_grad(&gg.sh, n, nc, k);
         let g_o: Vec<f32> = (0..n)
             .into_par_iter()
             .map(|i| {
@@ -487,11 +479,7 @@ impl GaussianTrainer {
     /// groups (values in `m`).
     pub fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
         let mut g = self.groups.state();
-        let extra = |name: &str, v: Vec<f32>| GroupState {
-            name: name.into(),
-            v: vec![0.0; v.len()],
-            m: v,
-        };
+        let extra = GroupState::values;
         g.push(extra("state/grad_sum", self.adc.grad_sum.clone()));
         g.push(extra("state/count", self.adc.count.clone()));
         g.push(extra("state/max_radius", self.adc.max_radius.clone()));
@@ -510,15 +498,7 @@ impl GaussianTrainer {
         let n = self.model.len();
         self.groups = Groups::new(Self::specs(&self.params, &self.model), n);
         self.groups.restore(step, &groups, n)?;
-        let get = |name: &str| -> Result<Vec<f32>, String> {
-            let g = groups.iter().find(|g| g.name == name).ok_or_else(|| {
-                format!("the checkpoint has no {name} (not a Gaussian training?)")
-            })?;
-            if g.m.len() != n {
-                return Err(format!("{name} holds {} values, expected {n}", g.m.len()));
-            }
-            Ok(g.m.clone())
-        };
+        let get = |name: &str| find_values(&groups, name, n, "Gaussian");
         self.adc = AdcState {
             grad_sum: get("state/grad_sum")?,
             count: get("state/count")?,

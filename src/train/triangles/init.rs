@@ -19,7 +19,7 @@
 use glam::{DMat3, DQuat, DVec3};
 use rand::RngExt;
 
-use crate::geom::knn::NnIndex;
+use crate::geom::knn::mean_sq_dist_3nn;
 use crate::model::gaussians::logit;
 use crate::model::rng::Rng;
 use crate::model::{PointCloud, TriangleSoup};
@@ -123,8 +123,7 @@ pub fn init_triangles(points: &PointCloud, p: &InitParams, rng: &mut Rng) -> Res
         )));
     }
     let p64: Vec<[f64; 3]> = pos.iter().map(|q| q.map(f64::from)).collect();
-    let tree = NnIndex::new(&p64)?;
-    let k = 4.min(p64.len());
+    let msd = mean_sq_dist_3nn(&p64)?;
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     let dirs = [
         DVec3::Z,
@@ -142,18 +141,8 @@ pub fn init_triangles(points: &PointCloud, p: &InitParams, rng: &mut Rng) -> Res
         sh_rest: vec![0.0; n * ((p.sh_degree + 1).pow(2) - 1) * 3],
         extras: Default::default(),
     };
-    for (i, q) in p64.iter().enumerate() {
-        // the 3 nearest other seeds (a duplicate counts, at distance 0, as in
-        // simple-knn)
+    for (q, msd) in p64.iter().zip(msd) {
         let c = DVec3::from_array(*q);
-        let d2: Vec<f64> = tree
-            .k_nearest(q, k)
-            .into_iter()
-            .filter(|&j| j != i)
-            .take(3)
-            .map(|j| (DVec3::from_array(p64[j]) - c).length_squared())
-            .collect();
-        let msd = (d2.iter().sum::<f64>() / d2.len().max(1) as f64).max(1e-7);
         let r = p.size * msd.sqrt();
         let rot = random_rotation(rng);
         soup.triangles

@@ -48,8 +48,8 @@ use splatkit_render::triangle_grad::{self, AuxGrads, TriangleGrads};
 use splatkit_render::triangle_stats::triangle_stats;
 
 use self::mcmc::{McmcParams, McmcState};
-use super::checkpoint::GroupState;
-use super::groups::{GroupSpec, Groups, Source};
+use super::checkpoint::{GroupState, find_values};
+use super::groups::{GroupSpec, Groups, Source, split_sh_grad};
 use super::photometric::{
     Eval, evaluate, loss_and_grad_weighted, psnr_of, random_background, recomposite,
 };
@@ -406,17 +406,7 @@ impl TriangleTrainer {
         let n = self.soup.len();
         let k = self.soup.rest_per_channel();
         let nc = coeff_count(self.soup.active_sh_degree.min(self.soup.sh_degree));
-        // SH: coefficient 0 → DC, 1.. → rest (bands above the active degree
-        // get no gradient)
-        let dc: Vec<[f32; 3]> = (0..n).into_par_iter().map(|i| g.sh[i * nc]).collect();
-        let mut rest = vec![0.0f32; n * k * 3];
-        if k > 0 {
-            rest.par_chunks_mut(k * 3).enumerate().for_each(|(i, r)| {
-                for kk in 1..nc {
-                    r[(kk - 1) * 3..kk * 3].copy_from_slice(&g.sh[i * nc + kk]);
-                }
-            });
-        }
+        let (dc, rest) = split_sh_grad(&g.sh, n, nc, k);
         let o: Vec<f32> = (0..n)
             .into_par_iter()
             .map(|i| {
@@ -457,10 +447,10 @@ impl TriangleTrainer {
                     sigma_cut = 1.0;
                 }
             }
-            let soup = self.soup.clone();
-            self.mcmc.prune(&mut self.soup, &mp, full_pass, |i| {
-                soup.sigma(i) >= sigma_cut
-            })
+            let soft: Vec<bool> = (0..self.soup.len())
+                .map(|i| self.soup.sigma(i) >= sigma_cut)
+                .collect();
+            self.mcmc.prune(&mut self.soup, &mp, full_pass, |i| soft[i])
         } else {
             return;
         };
@@ -494,11 +484,7 @@ impl TriangleTrainer {
     pub fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
         let mut g = self.groups.state();
         let st = &self.mcmc;
-        let extra = |name: &str, v: Vec<f32>| GroupState {
-            name: name.into(),
-            v: vec![0.0; v.len()],
-            m: v,
-        };
+        let extra = GroupState::values;
         g.push(extra("state/importance", st.importance.clone()));
         g.push(extra("state/visible", st.visible.clone()));
         g.push(extra("state/image_size", st.image_size.clone()));
@@ -515,15 +501,7 @@ impl TriangleTrainer {
         let n = self.soup.len();
         self.groups = Groups::new(Self::specs(&self.params, &self.soup), n);
         self.groups.restore(step, &groups, n)?;
-        let get = |name: &str, len: usize| -> Result<Vec<f32>, String> {
-            let g = groups.iter().find(|g| g.name == name).ok_or_else(|| {
-                format!("the checkpoint has no {name} (not a triangle training?)")
-            })?;
-            if g.m.len() != len {
-                return Err(format!("{name} holds {} values, expected {len}", g.m.len()));
-            }
-            Ok(g.m.clone())
-        };
+        let get = |name: &str, len: usize| find_values(&groups, name, len, "triangle");
         let c = get("state/counters", 2)?;
         self.mcmc = McmcState {
             importance: get("state/importance", n)?,
