@@ -39,7 +39,9 @@
 //! Run: `cargo bench --bench train` (all cases) or
 //! `cargo bench --bench train -- [--quick] [--iters N] [FILTER...]` where a
 //! FILTER is a substring of a case name (`triangles/400x300`,
-//! `gaussians/800x600`, ...). `SPLATKIT_BENCH_QUICK=1` = `--quick` (2,000
+//! `gaussians/800x600`, ...); `--default-malloc` leaves glibc malloc at its
+//! defaults instead of calling [`keep_freed_memory`] as `train` does.
+//! `SPLATKIT_BENCH_QUICK=1` = `--quick` (2,000
 //! primitives at 80×60, 2 iterations: a smoke run). Threads: the rayon
 //! pool (`RAYON_NUM_THREADS`). `scripts/bench_train.sh OUT` runs it on 2
 //! threads.
@@ -49,6 +51,7 @@ mod common;
 use std::time::Instant;
 
 use common::peak_mb;
+use splatkit::cli::memory::keep_freed_memory;
 use splatkit::model::gaussians::sigmoid;
 use splatkit::model::{Camera, Gaussians, TriangleSoup, View};
 use splatkit::testing::{cameras_around, sphere_points, textured_photos, uv_sphere};
@@ -77,6 +80,9 @@ const VIEWS: usize = 4;
 
 struct Opts {
     quick: bool,
+    /// Leave glibc malloc at its defaults (the `train` command calls
+    /// [`keep_freed_memory`]; this measures what that saves).
+    default_malloc: bool,
     iters: usize,
     filters: Vec<String>,
 }
@@ -84,6 +90,7 @@ struct Opts {
 fn opts() -> Opts {
     let mut o = Opts {
         quick: std::env::var_os("SPLATKIT_BENCH_QUICK").is_some_and(|v| v != "0"),
+        default_malloc: false,
         iters: 0,
         filters: Vec::new(),
     };
@@ -91,6 +98,7 @@ fn opts() -> Opts {
     while let Some(a) = args.next() {
         match a.as_str() {
             "--quick" => o.quick = true,
+            "--default-malloc" => o.default_malloc = true,
             "--iters" => {
                 o.iters = args
                     .next()
@@ -475,16 +483,24 @@ fn report(r: &CaseResult) {
 
 fn main() {
     let o = opts();
+    if !o.default_malloc {
+        keep_freed_memory();
+    }
     let (n, sizes): (usize, Vec<(u32, u32)>) = if o.quick {
         (2_000, vec![(80, 60), (160, 120)])
     } else {
         (200_000, vec![(400, 300), (800, 600)])
     };
     println!(
-        "env: {} | {} rayon threads | {} iterations per measurement{}",
+        "env: {} | {} rayon threads | {} iterations per measurement | malloc {}{}",
         cpu_model(),
         rayon::current_num_threads(),
         o.iters,
+        if o.default_malloc {
+            "glibc defaults"
+        } else {
+            "keep_freed_memory"
+        },
         if o.quick { " | QUICK (smoke run)" } else { "" }
     );
     let wanted = |case: &str| o.filters.is_empty() || o.filters.iter().any(|f| case.contains(f));

@@ -42,7 +42,8 @@ use crate::sh::coeff_count;
 
 pub use crate::tiles::TILE;
 use crate::tiles::{
-    TileLists, depth_key, intersect_rects, render_tiles, tile_pixels, tile_rect, tile_rect_cuda,
+    PREFETCH_DISTANCE, TileLists, depth_key, intersect_rects, prefetch_ahead, render_tiles,
+    tile_pixels, tile_rect, tile_rect_cuda,
 };
 
 /// Gaussians as the rasteriser wants them: activated values.
@@ -505,6 +506,7 @@ fn render_tile(
         if active == 0 {
             break;
         }
+        prefetch_ahead(proj, list, li + PREFETCH_DISTANCE);
         let p = &proj[pi as usize];
         let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
             continue;

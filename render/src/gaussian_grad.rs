@@ -21,10 +21,12 @@
 //!    conic, opacity, colour, depth and normal; per-tile buffers aligned with
 //!    the tile lists keep this deterministic, and they are summed in tile
 //!    order;
-//! 2. per Gaussian, the projection is re-run with [`Dual`] numbers over its
-//!    10 parameters (mean, scale, quaternion), which gives the exact Jacobian
-//!    of the 2-D mean, conic, view depth, normal and view-dependent colour;
-//!    the SH gradient is the basis times the colour gradient.
+//! 2. per Gaussian, the screen gradients are taken back through the
+//!    projection by the hand-written reverse sweep of
+//!    [`crate::gaussian_vjp`] (tested equal to the Dual-number Jacobian of
+//!    the forward code): 2-D mean, conic, view depth, normal and
+//!    view-dependent colour to the mean, scales and quaternion; the SH
+//!    gradient is the basis times the colour gradient.
 //!
 //! The depth and normal outputs are blends like the colour: ∂N/∂α_i =
 //! T_i (n_i − N_behind) and ∂(Σ w z)/∂α_i likewise with background 0, and
@@ -42,12 +44,10 @@
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::dual::{Dual, sh_rgb};
-use crate::gaussian::{
-    Gaussians3, RasterSettings, RasterState, TILE, pixel_span, project_t, rotation_rows,
-};
-use crate::sh::{basis, coeff_count};
-use crate::tiles::tile_pixels;
+use crate::gaussian::{Gaussians3, RasterSettings, RasterState, TILE, pixel_span, rotation_rows};
+use crate::gaussian_vjp::{ScreenGrad, colour_vjp, geometry_vjp};
+use crate::sh::coeff_count;
+use crate::tiles::{PREFETCH_DISTANCE, prefetch_ahead, tile_pixels};
 
 /// Gradients, shaped like [`Gaussians3`]'s fields, plus the screen-space
 /// mean gradient.
@@ -128,9 +128,6 @@ struct PixelBack {
 const SCREEN: usize = 9;
 const SCREEN_AUX: usize = 13;
 
-/// Index, ∂L/∂(mean, scale, quaternion), ∂L/∂opacity, ∂L/∂SH, ∂L/∂xy.
-type PerGaussian = (usize, [f64; 10], f32, [[f32; 3]; 16], [f32; 2]);
-
 /// Gradient of the loss with respect to `g`, given ∂L/∂rgb per pixel
 /// (row-major, `width × height`) and optionally ∂L/∂alpha. Same as
 /// [`backward_aux`] with only the alpha gradient.
@@ -174,10 +171,10 @@ pub fn backward_aux(
     }
     if aux.depth.is_some() || aux.normal.is_some() {
         let screen = screen_grads::<SCREEN_AUX>(s, state, d_rgb, aux, w, h);
-        through_projection(g, cam, s, state, &screen)
+        through_projection(g, cam, state, &screen)
     } else {
         let screen = screen_grads::<SCREEN>(s, state, d_rgb, aux, w, h);
-        through_projection(g, cam, s, state, &screen)
+        through_projection(g, cam, state, &screen)
     }
 }
 
@@ -232,6 +229,9 @@ fn screen_grads<const K: usize>(
             // Gaussian-major, back to front: each pixel still walks its own
             // contributions in reverse list order
             for li in (0..max_last as usize).rev() {
+                if li >= PREFETCH_DISTANCE {
+                    prefetch_ahead(proj, list, li - PREFETCH_DISTANCE);
+                }
                 let p = &proj[list[li] as usize];
                 let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
                     continue;
@@ -297,11 +297,12 @@ fn screen_grads<const K: usize>(
     state.tiles.gather(&tile_grads)
 }
 
-/// Stage 2: the screen gradients through each Gaussian's projection.
+/// Stage 2: the screen gradients through each Gaussian's projection
+/// ([`crate::gaussian_vjp`]), written straight into the output arrays in
+/// parallel (each Gaussian's entries by one task: deterministic).
 fn through_projection<const K: usize>(
     g: &Gaussians3,
     cam: &Camera,
-    s: &RasterSettings,
     state: &RasterState,
     screen: &[[f64; K]],
 ) -> GaussianGrads {
@@ -315,72 +316,54 @@ fn through_projection<const K: usize>(
         sh: vec![[0.0; 3]; n * nc],
         means2d: vec![[0.0; 2]; n],
     };
-    let rows = rotation_rows(cam);
-    let center = cam.center();
-    let per: Vec<PerGaussian> = state
-        .proj
-        .par_iter()
-        .zip(screen.par_iter())
-        .map(|(p, d)| {
-            let i = p.id as usize;
-            let mean: [Dual<10>; 3] = std::array::from_fn(|k| Dual::var(g.means[i][k] as f64, k));
-            let scale: [Dual<10>; 3] =
-                std::array::from_fn(|k| Dual::var(g.scales[i][k] as f64, 3 + k));
-            let quat: [Dual<10>; 4] =
-                std::array::from_fn(|k| Dual::var(g.rotations[i][k] as f64, 6 + k));
-            let sh = &g.sh[i * nc..(i + 1) * nc];
-            let mut grad = [0.0f64; 10];
-            let mut dsh = [[0.0f32; 3]; 16];
-            if let Some(pt) = project_t(mean, scale, quat, None, g.sh_degree, cam, &rows, s) {
-                let mut add = |v: &Dual<10>, gv: f64| {
-                    for (gk, dk) in grad.iter_mut().zip(v.d) {
-                        *gk += dk * gv;
-                    }
-                };
-                add(&pt.xy[0], d[0]);
-                add(&pt.xy[1], d[1]);
-                for k in 0..3 {
-                    add(&pt.conic[k], d[2 + k]);
-                }
-                if K > SCREEN {
-                    add(&pt.depth, d[SCREEN]);
-                    for k in 0..3 {
-                        add(&pt.normal[k], d[SCREEN + 1 + k]);
-                    }
-                }
-                // colour: depends on the mean only, through the view direction
-                let m3: [Dual<3>; 3] = std::array::from_fn(|k| Dual::var(g.means[i][k] as f64, k));
-                let rgb = sh_rgb(m3, center.to_array(), sh, g.sh_degree);
-                let dir = [
-                    (g.means[i][0] as f64 - center.x) as f32,
-                    (g.means[i][1] as f64 - center.y) as f32,
-                    (g.means[i][2] as f64 - center.z) as f32,
-                ];
-                let mut b = [0.0f32; 16];
-                basis(g.sh_degree, dir, &mut b);
-                for ch in 0..3 {
-                    if rgb[ch].v < 0.0 {
-                        continue; // clamped colour
-                    }
-                    for (gk, dk) in grad.iter_mut().zip(rgb[ch].d) {
-                        *gk += dk * d[6 + ch];
-                    }
-                    for k in 0..nc {
-                        dsh[k][ch] = b[k] * d[6 + ch] as f32;
-                    }
-                }
-            }
-            (i, grad, d[5] as f32, dsh, [d[0] as f32, d[1] as f32])
-        })
-        .collect();
-    for (i, grad, dop, dsh, dxy) in per {
-        out.means[i] = std::array::from_fn(|k| grad[k] as f32);
-        out.scales[i] = std::array::from_fn(|k| grad[3 + k] as f32);
-        out.rotations[i] = std::array::from_fn(|k| grad[6 + k] as f32);
-        out.opacities[i] = dop;
-        out.sh[i * nc..(i + 1) * nc].copy_from_slice(&dsh[..nc]);
-        out.means2d[i] = dxy;
+    if nc == 0 {
+        return out;
     }
+    // position in the projected list of each Gaussian (culled: none)
+    let mut slot = vec![u32::MAX; n];
+    for (j, p) in state.proj.iter().enumerate() {
+        slot[p.id as usize] = j as u32;
+    }
+    let rows = rotation_rows(cam);
+    let eye = cam.center().to_array();
+    out.means
+        .par_iter_mut()
+        .zip(out.scales.par_iter_mut())
+        .zip(out.rotations.par_iter_mut())
+        .zip(out.opacities.par_iter_mut())
+        .zip(out.sh.par_chunks_mut(nc))
+        .zip(out.means2d.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (((((gm, gsc), grot), gop), gsh), gxy))| {
+            let j = slot[i];
+            if j == u32::MAX {
+                return;
+            }
+            let d = &screen[j as usize];
+            let mut sg = ScreenGrad {
+                xy: [d[0], d[1]],
+                conic: [d[2], d[3], d[4]],
+                ..Default::default()
+            };
+            if K > SCREEN {
+                sg.depth = d[SCREEN];
+                sg.normal = [d[SCREEN + 1], d[SCREEN + 2], d[SCREEN + 3]];
+            }
+            let geo = geometry_vjp(g.means[i], g.scales[i], g.rotations[i], cam, &rows, &sg);
+            let gc = colour_vjp(
+                g.means[i],
+                eye,
+                &g.sh[i * nc..(i + 1) * nc],
+                g.sh_degree,
+                [d[6], d[7], d[8]],
+                gsh,
+            );
+            *gm = std::array::from_fn(|k| (geo[k] + gc[k]) as f32);
+            *gsc = std::array::from_fn(|k| geo[3 + k] as f32);
+            *grot = std::array::from_fn(|k| geo[6 + k] as f32);
+            *gop = d[5] as f32;
+            *gxy = [d[0] as f32, d[1] as f32];
+        });
     out
 }
 

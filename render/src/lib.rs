@@ -8,7 +8,10 @@
 //!   [`triangle_grad`], and the opaque z-buffer [`mesh`]; all share the tile
 //!   binning of [`tiles`] and are deterministic for any thread count;
 //! - [`dual`]: forward-mode dual numbers that give the projections' exact
-//!   Jacobians from the same generic code as the forward pass;
+//!   Jacobians from the same generic code as the forward pass (the triangle
+//!   backward uses them; the Gaussian backward runs the hand-written reverse
+//!   sweep of `gaussian_vjp`, tested equal to them, because the training
+//!   loop spends its time there);
 //! - [`depth_normal`]: 2DGS's normals from depth and the depth–normal
 //!   consistency loss with its gradients;
 //! - [`loss`] (L1, SSIM with gradient, PSNR) and [`optim`] (Adam with
@@ -19,6 +22,7 @@ pub mod depth_normal;
 pub mod dual;
 pub mod gaussian;
 pub mod gaussian_grad;
+pub(crate) mod gaussian_vjp;
 pub mod loss;
 pub mod mesh;
 pub mod optim;

@@ -87,10 +87,17 @@ fn blur(x: &[f64], w: usize, h: usize, g: &[f64; 11]) -> Vec<f64> {
             let src = &x[y * w..(y + 1) * w];
             for (xx, t) in row.iter_mut().enumerate() {
                 let mut acc = 0.0;
-                for (k, gk) in g.iter().enumerate() {
-                    let sx = xx as isize + k as isize - 5;
-                    if sx >= 0 && (sx as usize) < w {
-                        acc += gk * src[sx as usize];
+                if xx >= 5 && xx + 5 < w {
+                    // interior: all 11 taps, the same order as below
+                    for (gk, v) in g.iter().zip(&src[xx - 5..xx + 6]) {
+                        acc += gk * v;
+                    }
+                } else {
+                    for (k, gk) in g.iter().enumerate() {
+                        let sx = xx as isize + k as isize - 5;
+                        if sx >= 0 && (sx as usize) < w {
+                            acc += gk * src[sx as usize];
+                        }
                     }
                 }
                 *t = acc;

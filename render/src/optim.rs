@@ -3,6 +3,11 @@
 
 use std::ops::Range;
 
+use rayon::prelude::*;
+
+/// Elements per parallel task of [`Adam::step`].
+const CHUNK: usize = 1 << 14;
+
 /// A learning rate that may change with the step.
 #[derive(Clone, Copy, Debug)]
 pub enum LrSchedule {
@@ -91,7 +96,9 @@ impl Adam {
         Ok(())
     }
 
-    /// One update of `params` with `grads` (same length as at creation).
+    /// One update of `params` with `grads` (same length as at creation),
+    /// in parallel over chunks (element-wise: the result does not depend on
+    /// the thread count).
     pub fn step(&mut self, params: &mut [f32], grads: &[f32]) {
         assert_eq!(params.len(), self.m.len(), "parameter buffer changed size");
         assert_eq!(
@@ -108,12 +115,20 @@ impl Adam {
             let (b1, b2) = (self.beta1 as f32, self.beta2 as f32);
             let sb2 = bc2.sqrt() as f32;
             let eps = self.eps as f32;
-            for i in g.range.clone() {
-                let gi = grads[i];
-                self.m[i] = b1 * self.m[i] + (1.0 - b1) * gi;
-                self.v[i] = b2 * self.v[i] + (1.0 - b2) * gi * gi;
-                params[i] -= step_size * self.m[i] / (self.v[i].sqrt() / sb2 + eps);
-            }
+            let r = g.range.clone();
+            // element-wise, so the parallel split cannot change a result
+            params[r.clone()]
+                .par_chunks_mut(CHUNK)
+                .zip(grads[r.clone()].par_chunks(CHUNK))
+                .zip(self.m[r.clone()].par_chunks_mut(CHUNK))
+                .zip(self.v[r].par_chunks_mut(CHUNK))
+                .for_each(|(((p, gr), m), v)| {
+                    for (((p, &gi), m), v) in p.iter_mut().zip(gr).zip(m).zip(v) {
+                        *m = b1 * *m + (1.0 - b1) * gi;
+                        *v = b2 * *v + (1.0 - b2) * gi * gi;
+                        *p -= step_size * *m / (v.sqrt() / sb2 + eps);
+                    }
+                });
         }
         self.step = t;
     }

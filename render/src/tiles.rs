@@ -291,6 +291,34 @@ pub fn render_tiles<T: Send>(
     }
 }
 
+/// How many list entries ahead [`prefetch_ahead`] asks for.
+pub(crate) const PREFETCH_DISTANCE: usize = 8;
+
+/// Hints the CPU to load `items[list[k]]` (both cache lines of a record up
+/// to 128 bytes) into cache; nothing when `k` is past the list. A tile list
+/// visits its primitives in depth order, which is random in memory: without
+/// the hint every primitive's first read is a cache miss the pixel loop
+/// waits for (measured: a tenth of the Gaussian forward pass). A hint never
+/// faults and never changes a result.
+#[inline(always)]
+pub(crate) fn prefetch_ahead<T>(items: &[T], list: &[u32], k: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(&i) = list.get(k) {
+        let p = items.as_ptr().wrapping_add(i as usize) as *const i8;
+        // SAFETY: prefetching is only a hint; it does not dereference the
+        // address and cannot fault, whatever the address.
+        unsafe {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            if std::mem::size_of::<T>() > 64 {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (items, list, k);
+}
+
 /// A slice that several threads write at disjoint indices.
 struct SharedSlice<T> {
     ptr: *mut T,
