@@ -483,8 +483,8 @@ fn report(r: &CaseResult) {
 
 fn main() {
     let o = opts();
-    if !o.default_malloc {
-        keep_freed_memory();
+    if !o.default_malloc && !keep_freed_memory() {
+        println!("(the allocator refused keep_freed_memory's limits)");
     }
     let (n, sizes): (usize, Vec<(u32, u32)>) = if o.quick {
         (2_000, vec![(80, 60), (160, 120)])

@@ -119,6 +119,8 @@ fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
 /// `refine` entry point.
 pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    // every step frees and reallocates the same large buffers
+    let _ = crate::cli::memory::keep_freed_memory();
     let iterations = match (args.iterations, args.medium, args.long) {
         (Some(n), _, _) => n,
         (None, true, _) => 7000,

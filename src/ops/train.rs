@@ -202,7 +202,7 @@ fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
 /// `train` entry point.
 pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     // every step frees and reallocates the same large buffers
-    crate::cli::memory::keep_freed_memory();
+    let _ = crate::cli::memory::keep_freed_memory();
     match args.model {
         TrainModel::Triangles(a) => run_triangles(a),
         TrainModel::Gaussians(a) => run_gaussians(a),
