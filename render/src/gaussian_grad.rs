@@ -258,7 +258,8 @@ fn screen_grads<const K: usize>(
                             continue;
                         }
                         // transmittance in front of this Gaussian
-                        b.t /= 1.0 - alpha;
+                        let inv = 1.0 / (1.0 - alpha);
+                        b.t *= inv;
                         let wgt = alpha * b.t;
                         let mut d_a = 0.0f32;
                         for k in 0..3 {
@@ -276,7 +277,7 @@ fn screen_grads<const K: usize>(
                                 b.behind_n[k] = alpha * p.normal[k] + (1.0 - alpha) * b.behind_n[k];
                             }
                         }
-                        d_a += b.ga * b.t_final / (1.0 - alpha);
+                        d_a += b.ga * b.t_final * inv;
                         if raw >= 0.99 {
                             continue;
                         }

@@ -57,8 +57,9 @@ pub(crate) fn geometry_vjp(
         std::array::from_fn(|i| m[0] * rows[i][0] + m[1] * rows[i][1] + m[2] * rows[i][2] + tr[i]);
     let qn = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
     let unit = qn > 0.0;
+    let inv_qn = 1.0 / qn;
     let [w, x, y, z] = if unit {
-        q.map(|v| v / qn)
+        q.map(|v| v * inv_qn)
     } else {
         [1.0, 0.0, 0.0, 0.0]
     };
@@ -116,10 +117,11 @@ pub(crate) fn geometry_vjp(
 
     // conic = (cc, −cb, ca)/det
     let [g0, g1, g2] = gs.conic;
-    let g_det = -(g0 * cc - g1 * cb + g2 * ca) / (det * det);
-    let g_ca = g2 / det + g_det * cc;
-    let g_cc = g0 / det + g_det * ca;
-    let g_cb = -g1 / det - 2.0 * g_det * cb;
+    let inv_det = 1.0 / det;
+    let g_det = -(g0 * cc - g1 * cb + g2 * ca) * inv_det * inv_det;
+    let g_ca = g2 * inv_det + g_det * cc;
+    let g_cc = g0 * inv_det + g_det * ca;
+    let g_cb = -g1 * inv_det - 2.0 * g_det * cb;
     let g_a0: [f64; 3] = std::array::from_fn(|c| 2.0 * g_ca * a0[c] + g_cb * a1[c]);
     let g_a1: [f64; 3] = std::array::from_fn(|c| 2.0 * g_cc * a1[c] + g_cb * a0[c]);
     let g_sc: [f64; 3] = std::array::from_fn(|c| g_a0[c] * b0[c] + g_a1[c] * b1[c]);
@@ -187,7 +189,7 @@ pub(crate) fn geometry_vjp(
         let n = [w, x, y, z];
         let along = n[0] * gq[0] + n[1] * gq[1] + n[2] * gq[2] + n[3] * gq[3];
         for j in 0..4 {
-            out[6 + j] = (gq[j] - n[j] * along) / qn;
+            out[6 + j] = (gq[j] - n[j] * along) * inv_qn;
         }
     }
     out
