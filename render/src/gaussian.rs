@@ -205,6 +205,29 @@ pub(crate) struct ProjectedT<T> {
     pub normal: [T; 3],
 }
 
+/// The rotation matrix R[row][col] of a unit quaternion (w, x, y, z) (the
+/// caller normalises; 3DGS's `build_rotation`): its columns are the
+/// Gaussian's local axes in world space.
+pub fn quat_matrix([w, x, y, z]: [f64; 4]) -> [[f64; 3]; 3] {
+    [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ]
+}
+
 /// World-to-camera rotation as rows.
 pub(crate) fn rotation_rows(cam: &Camera) -> [[f64; 3]; 3] {
     let r = cam.rotation;

@@ -22,6 +22,7 @@
 
 use crate::Camera;
 use crate::dual::sh_basis;
+use crate::gaussian::quat_matrix;
 
 /// ∂L/∂ of the projected geometry of one Gaussian.
 #[derive(Clone, Copy, Debug, Default)]
@@ -63,23 +64,7 @@ pub(crate) fn geometry_vjp(
     } else {
         [1.0, 0.0, 0.0, 0.0]
     };
-    let rq = [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ];
+    let rq = quat_matrix([w, x, y, z]);
     let (fx, fy) = (cam.fx, cam.fy);
     let lim_x = 1.3 * (cam.width as f64 / (2.0 * fx));
     let lim_y = 1.3 * (cam.height as f64 / (2.0 * fy));

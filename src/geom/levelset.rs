@@ -36,7 +36,7 @@
 
 use rand::RngExt;
 use rayon::prelude::*;
-use splatkit_render::gaussian::{self, Gaussians3, RasterSettings, RenderOutput};
+use splatkit_render::gaussian::{self, Gaussians3, RasterSettings, RenderOutput, quat_matrix};
 
 use crate::geom::diamond_zbuffer::diamond_zbuffer;
 use crate::geom::knn::NnIndex;
@@ -152,28 +152,12 @@ pub struct Density {
 
 fn quat_rows(q: [f32; 4]) -> [[f64; 3]; 3] {
     let n = q.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().sqrt();
-    let [w, x, y, z] = if n > 0.0 && n.is_finite() {
+    let unit = if n > 0.0 && n.is_finite() {
         q.map(|v| v as f64 / n)
     } else {
         [1.0, 0.0, 0.0, 0.0]
     };
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
+    quat_matrix(unit)
 }
 
 /// The rotation (columns = local axes) and scales of Gaussian `i`, with the
