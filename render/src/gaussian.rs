@@ -207,23 +207,25 @@ pub(crate) struct ProjectedT<T> {
 
 /// The rotation matrix R[row][col] of a unit quaternion (w, x, y, z) (the
 /// caller normalises; 3DGS's `build_rotation`): its columns are the
-/// Gaussian's local axes in world space.
-pub fn quat_matrix([w, x, y, z]: [f64; 4]) -> [[f64; 3]; 3] {
+/// Gaussian's local axes in world space. Generic so that the projection,
+/// its derivatives and the f64 callers share it.
+pub fn quat_matrix<T: Real>([w, x, y, z]: [T; 4]) -> [[T; 3]; 3] {
+    let one = T::cst(1.0);
     [
         [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
+            one - (y * y + z * z) * 2.0,
+            (x * y - w * z) * 2.0,
+            (x * z + w * y) * 2.0,
         ],
         [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
+            (x * y + w * z) * 2.0,
+            one - (x * x + z * z) * 2.0,
+            (y * z - w * x) * 2.0,
         ],
         [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
+            (x * z - w * y) * 2.0,
+            (y * z + w * x) * 2.0,
+            one - (x * x + y * y) * 2.0,
         ],
     ]
 }
@@ -264,23 +266,7 @@ pub(crate) fn project_t<T: Real>(
     };
     let one = T::cst(1.0);
     // rotation matrix of the quaternion, rq[r][c]
-    let rq = [
-        [
-            one - (y * y + zq * zq) * 2.0,
-            (x * y - w * zq) * 2.0,
-            (x * zq + w * y) * 2.0,
-        ],
-        [
-            (x * y + w * zq) * 2.0,
-            one - (x * x + zq * zq) * 2.0,
-            (y * zq - w * x) * 2.0,
-        ],
-        [
-            (x * zq - w * y) * 2.0,
-            (y * zq + w * x) * 2.0,
-            one - (x * x + y * y) * 2.0,
-        ],
-    ];
+    let rq = quat_matrix([w, x, y, zq]);
     let (wd, hd) = (cam.width as f64, cam.height as f64);
     let lim_x = 1.3 * (wd / (2.0 * cam.fx));
     let lim_y = 1.3 * (hd / (2.0 * cam.fy));

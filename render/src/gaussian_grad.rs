@@ -103,6 +103,31 @@ pub struct AuxGrads<'a> {
     pub normal: Option<&'a [[f32; 3]]>,
 }
 
+impl AuxGrads<'_> {
+    /// Panics unless `d_rgb` and every given auxiliary gradient hold one
+    /// value per pixel of a `w × h` image (a caller's bug, as a wrong
+    /// buffer length is in every rasteriser entry point).
+    pub(crate) fn check_lengths(&self, d_rgb: &[[f32; 3]], w: usize, h: usize) {
+        assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
+        for len in [
+            self.alpha.map(<[f32]>::len),
+            self.depth.map(<[f32]>::len),
+            self.normal.map(<[[f32; 3]]>::len),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            assert_eq!(len, w * h, "one auxiliary gradient per pixel");
+        }
+    }
+
+    /// Whether a depth or normal gradient is given (the backward passes then
+    /// carry the longer per-primitive screen gradient).
+    pub(crate) fn has_geometry(&self) -> bool {
+        self.depth.is_some() || self.normal.is_some()
+    }
+}
+
 /// One pixel's state in the backward walk.
 #[derive(Clone, Copy, Default)]
 struct PixelBack {
@@ -158,18 +183,8 @@ pub fn backward_aux(
     aux: &AuxGrads,
 ) -> GaussianGrads {
     let (w, h) = (cam.width as usize, cam.height as usize);
-    assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
-    for len in [
-        aux.alpha.map(<[f32]>::len),
-        aux.depth.map(<[f32]>::len),
-        aux.normal.map(<[[f32; 3]]>::len),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        assert_eq!(len, w * h, "one auxiliary gradient per pixel");
-    }
-    if aux.depth.is_some() || aux.normal.is_some() {
+    aux.check_lengths(d_rgb, w, h);
+    if aux.has_geometry() {
         let screen = screen_grads::<SCREEN_AUX>(s, state, d_rgb, aux, w, h);
         through_projection(g, cam, state, &screen)
     } else {
@@ -371,8 +386,10 @@ fn through_projection<const K: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gaussian::{RenderOutput, rasterize};
-    use crate::testutil::{Lcg, check_gradient, linear_loss, random_sh, test_camera};
+    use crate::gaussian::rasterize;
+    use crate::testutil::{
+        Lcg, aux_weights, check_gradient, eval_full, linear_loss, random_sh, test_camera,
+    };
 
     /// A scene whose image is smooth in every parameter: a few large
     /// Gaussians (σ ≥ 40 px on a 48×40 image) that cover every pixel with
@@ -407,6 +424,46 @@ mod tests {
         g
     }
 
+    /// Central-difference checks of ∂L/∂means (step 1e-2), scales (5e-2),
+    /// quaternions (1e-2) and opacities (1e-3) of `gr` against `loss` around
+    /// `g` ([`check_gradient`] and its tolerance); `label` prefixes the names
+    /// in a failure.
+    fn check_params(
+        label: &str,
+        g: &Gaussians3,
+        gr: &GaussianGrads,
+        loss: impl Fn(&Gaussians3) -> f64,
+    ) {
+        let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
+        check_gradient(&format!("{label} means"), &flat(&gr.means), 1e-2, |k, h| {
+            let mut g2 = g.clone();
+            g2.means[k / 3][k % 3] += h as f32;
+            loss(&g2)
+        });
+        check_gradient(
+            &format!("{label} scales"),
+            &flat(&gr.scales),
+            5e-2,
+            |k, h| {
+                let mut g2 = g.clone();
+                g2.scales[k / 3][k % 3] += h as f32;
+                loss(&g2)
+            },
+        );
+        let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
+        check_gradient(&format!("{label} rotations"), &rot, 1e-2, |k, h| {
+            let mut g2 = g.clone();
+            g2.rotations[k / 4][k % 4] += h as f32;
+            loss(&g2)
+        });
+        let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
+        check_gradient(&format!("{label} opacities"), &op, 1e-3, |k, h| {
+            let mut g2 = g.clone();
+            g2.opacities[k] += h as f32;
+            loss(&g2)
+        });
+    }
+
     /// Every parameter type against central differences of the loss
     /// L = Σ w·rgb + Σ v·alpha with random weights. The rasteriser blends in
     /// f32 (see [`check_gradient`] for the tolerance); steps are small
@@ -432,29 +489,8 @@ mod tests {
                 "every Gaussian covers every pixel"
             );
             let gr = backward(&g, &cam, &s, &state, &wr, Some(&wa));
+            check_params("", &g, &gr, loss);
             let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
-            check_gradient("means", &flat(&gr.means), 1e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.means[k / 3][k % 3] += h as f32;
-                loss(&g2)
-            });
-            check_gradient("scales", &flat(&gr.scales), 5e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.scales[k / 3][k % 3] += h as f32;
-                loss(&g2)
-            });
-            let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
-            check_gradient("rotations", &rot, 1e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.rotations[k / 4][k % 4] += h as f32;
-                loss(&g2)
-            });
-            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
-            check_gradient("opacities", &op, 1e-3, |k, h| {
-                let mut g2 = g.clone();
-                g2.opacities[k] += h as f32;
-                loss(&g2)
-            });
             check_gradient("sh", &flat(&gr.sh), 1e-2, |k, h| {
                 let mut g2 = g.clone();
                 g2.sh[k / 3][k % 3] += h as f32;
@@ -514,33 +550,6 @@ mod tests {
         );
     }
 
-    /// Random weights in [−1, 1] for a linear loss over the expected depth
-    /// and the accumulated normal.
-    fn aux_weights(pixels: usize, seed: u64) -> (Vec<f32>, Vec<[f32; 3]>) {
-        let mut r = Lcg(seed);
-        let wd = (0..pixels).map(|_| r.range(-1.0, 1.0)).collect();
-        let wn = (0..pixels)
-            .map(|_| [r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)])
-            .collect();
-        (wd, wn)
-    }
-
-    /// Σ w·rgb + Σ v·alpha + Σ u·expected depth + Σ q·normal_sum, in f64.
-    fn eval_full(
-        img: &RenderOutput,
-        (wr, wa): (&[[f32; 3]], &[f32]),
-        (wd, wn): (&[f32], &[[f32; 3]]),
-    ) -> f64 {
-        let mut l = crate::testutil::eval_linear(&img.rgb, &img.alpha, wr, wa);
-        for i in 0..img.rgb.len() {
-            l += img.expected_depth[i] as f64 * wd[i] as f64;
-            for (n, q) in img.normal_sum[i].iter().zip(wn[i]) {
-                l += *n as f64 * q as f64;
-            }
-        }
-        l
-    }
-
     /// The depth and normal gradients, with the colour and alpha ones, on
     /// the smooth scenes of [`gradients_match_finite_differences`] against
     /// central differences of L = Σ w·rgb + Σ v·alpha + Σ u·D + Σ q·N with
@@ -576,29 +585,7 @@ mod tests {
                 normal: Some(&wn),
             };
             let gr = backward_aux(&g, &cam, &s, &state, &wr, &aux);
-            let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
-            check_gradient("aux means", &flat(&gr.means), 1e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.means[k / 3][k % 3] += h as f32;
-                loss(&g2)
-            });
-            check_gradient("aux scales", &flat(&gr.scales), 5e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.scales[k / 3][k % 3] += h as f32;
-                loss(&g2)
-            });
-            let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
-            check_gradient("aux rotations", &rot, 1e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.rotations[k / 4][k % 4] += h as f32;
-                loss(&g2)
-            });
-            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
-            check_gradient("aux opacities", &op, 1e-3, |k, h| {
-                let mut g2 = g.clone();
-                g2.opacities[k] += h as f32;
-                loss(&g2)
-            });
+            check_params("aux", &g, &gr, loss);
             // the projected means moved directly
             let m2d: Vec<f64> = gr.means2d.iter().flatten().map(|&x| x as f64).collect();
             check_gradient("means2d", &m2d, 5e-2, |k, h| {
@@ -641,34 +628,7 @@ mod tests {
                 normal: Some(normal),
             };
             let gr = backward_aux(&g, &cam, &s, &state, &zero_rgb, &aux);
-            let flat = |v: &[[f32; 3]]| v.iter().flatten().map(|&x| x as f64).collect::<Vec<_>>();
-            check_gradient(&format!("{name}: means"), &flat(&gr.means), 1e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.means[k / 3][k % 3] += h as f32;
-                loss(&g2)
-            });
-            check_gradient(
-                &format!("{name}: scales"),
-                &flat(&gr.scales),
-                5e-2,
-                |k, h| {
-                    let mut g2 = g.clone();
-                    g2.scales[k / 3][k % 3] += h as f32;
-                    loss(&g2)
-                },
-            );
-            let rot: Vec<f64> = gr.rotations.iter().flatten().map(|&x| x as f64).collect();
-            check_gradient(&format!("{name}: rotations"), &rot, 1e-2, |k, h| {
-                let mut g2 = g.clone();
-                g2.rotations[k / 4][k % 4] += h as f32;
-                loss(&g2)
-            });
-            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
-            check_gradient(&format!("{name}: opacities"), &op, 1e-3, |k, h| {
-                let mut g2 = g.clone();
-                g2.opacities[k] += h as f32;
-                loss(&g2)
-            });
+            check_params(name, &g, &gr, loss);
         }
     }
 

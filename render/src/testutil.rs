@@ -98,3 +98,30 @@ pub fn check_gradient(name: &str, analytic: &[f64], h: f64, f: impl Fn(usize, f6
         &bad[..bad.len().min(8)]
     );
 }
+
+/// Random weights in [−1, 1] for a linear loss over the expected depth and
+/// the accumulated normal Σ w n.
+pub fn aux_weights(pixels: usize, seed: u64) -> (Vec<f32>, Vec<[f32; 3]>) {
+    let mut r = Lcg(seed);
+    let wd = (0..pixels).map(|_| r.range(-1.0, 1.0)).collect();
+    let wn = (0..pixels)
+        .map(|_| [r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)])
+        .collect();
+    (wd, wn)
+}
+
+/// Σ w·rgb + Σ v·alpha + Σ u·expected depth + Σ q·normal_sum, in f64.
+pub fn eval_full(
+    img: &crate::gaussian::RenderOutput,
+    (wr, wa): (&[[f32; 3]], &[f32]),
+    (wd, wn): (&[f32], &[[f32; 3]]),
+) -> f64 {
+    let mut l = eval_linear(&img.rgb, &img.alpha, wr, wa);
+    for i in 0..img.rgb.len() {
+        l += img.expected_depth[i] as f64 * wd[i] as f64;
+        for (n, q) in img.normal_sum[i].iter().zip(wn[i]) {
+            l += *n as f64 * q as f64;
+        }
+    }
+    l
+}

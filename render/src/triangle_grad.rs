@@ -81,18 +81,8 @@ pub fn backward_aux(
     aux: &AuxGrads,
 ) -> TriangleGrads {
     let (w, h) = (cam.width as usize, cam.height as usize);
-    assert_eq!(d_rgb.len(), w * h, "one RGB gradient per pixel");
-    for len in [
-        aux.alpha.map(<[f32]>::len),
-        aux.depth.map(<[f32]>::len),
-        aux.normal.map(<[[f32; 3]]>::len),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        assert_eq!(len, w * h, "one auxiliary gradient per pixel");
-    }
-    if aux.depth.is_some() || aux.normal.is_some() {
+    aux.check_lengths(d_rgb, w, h);
+    if aux.has_geometry() {
         let screen = screen_grads::<SCREEN_AUX>(s, state, d_rgb, aux, w, h);
         through_projection(t, cam, s, state, &screen)
     } else {
@@ -287,8 +277,10 @@ fn through_projection<const K: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gaussian::RenderOutput;
-    use crate::testutil::{Lcg, check_gradient, eval_linear, linear_loss, random_sh, test_camera};
+    use crate::testutil::{
+        Lcg, aux_weights, check_gradient, eval_full, eval_linear, linear_loss, random_sh,
+        test_camera,
+    };
     use crate::triangle::{rasterize, render};
 
     /// Large triangles (inradius 210–300 px) placed so that the whole 48×40
@@ -356,63 +348,14 @@ mod tests {
                 "every triangle covers every pixel"
             );
             let gr = backward(&t, &cam, &s, &state, &wr, Some(&wa));
-            let sig: Vec<f64> = gr.sigmas.iter().map(|&x| x as f64).collect();
-            check_gradient("sigmas", &sig, 1e-2, |k, h| {
-                let mut t2 = t.clone();
-                t2.sigmas[k] += h as f32;
-                loss(&t2)
-            });
-            let op: Vec<f64> = gr.opacities.iter().map(|&x| x as f64).collect();
-            check_gradient("opacities", &op, 1e-3, |k, h| {
-                let mut t2 = t.clone();
-                t2.opacities[k] += h as f32;
-                loss(&t2)
-            });
+            check_geometry("colour + alpha", &t, &gr, loss);
             let sh: Vec<f64> = gr.sh.iter().flatten().map(|&x| x as f64).collect();
             check_gradient("sh", &sh, 1e-2, |k, h| {
                 let mut t2 = t.clone();
                 t2.sh[k / 3][k % 3] += h as f32;
                 loss(&t2)
             });
-            let verts: Vec<f64> = gr
-                .vertices
-                .iter()
-                .flatten()
-                .flatten()
-                .map(|&x| x as f64)
-                .collect();
-            check_gradient("vertices", &verts, 1e-2, |k, h| {
-                let mut t2 = t.clone();
-                t2.vertices[k / 9][(k / 3) % 3][k % 3] += h as f32;
-                loss(&t2)
-            });
         }
-    }
-
-    /// Random weights in [−1, 1] for the expected depth and Σ w n.
-    fn aux_weights(pixels: usize, seed: u64) -> (Vec<f32>, Vec<[f32; 3]>) {
-        let mut r = Lcg(seed);
-        let wd = (0..pixels).map(|_| r.range(-1.0, 1.0)).collect();
-        let wn = (0..pixels)
-            .map(|_| [r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0)])
-            .collect();
-        (wd, wn)
-    }
-
-    /// Σ w·rgb + Σ v·alpha + Σ u·expected depth + Σ q·normal_sum, in f64.
-    fn eval_full(
-        img: &RenderOutput,
-        (wr, wa): (&[[f32; 3]], &[f32]),
-        (wd, wn): (&[f32], &[[f32; 3]]),
-    ) -> f64 {
-        let mut l = eval_linear(&img.rgb, &img.alpha, wr, wa);
-        for i in 0..img.rgb.len() {
-            l += img.expected_depth[i] as f64 * wd[i] as f64;
-            for (n, q) in img.normal_sum[i].iter().zip(wn[i]) {
-                l += *n as f64 * q as f64;
-            }
-        }
-        l
     }
 
     /// Checks vertices, σ and opacity against central differences of `loss`
