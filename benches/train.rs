@@ -52,22 +52,20 @@ use std::time::Instant;
 
 use common::peak_mb;
 use splatkit::cli::memory::keep_freed_memory;
-use splatkit::model::gaussians::sigmoid;
 use splatkit::model::{Camera, Gaussians, TriangleSoup, View};
 use splatkit::testing::{cameras_around, sphere_points, textured_photos, uv_sphere};
 use splatkit::train::gaussians::adc::AdcState;
 use splatkit::train::gaussians::init::init_gaussians;
-use splatkit::train::gaussians::{GaussianParams, GaussianTrainer, raster};
+use splatkit::train::gaussians::{self, GaussianParams, GaussianTrainer};
 use splatkit::train::groups::{GroupSpec, Groups};
 use splatkit::train::photometric::{loss_and_grad_weighted, psnr_of};
 use splatkit::train::schedule::view_at;
 use splatkit::train::triangles::init::{InitParams, init_triangles};
 use splatkit::train::triangles::mcmc::McmcState;
-use splatkit::train::triangles::{Preset, TriangleParams, TriangleTrainer, size_loss};
+use splatkit::train::triangles::{self, Preset, TriangleParams, TriangleTrainer, size_loss};
 use splatkit_render::depth_normal::normal_consistency;
 use splatkit_render::gaussian::RasterSettings;
 use splatkit_render::optim::LrSchedule;
-use splatkit_render::sh::coeff_count;
 use splatkit_render::triangle_stats::triangle_stats;
 use splatkit_render::{gaussian, gaussian_grad, triangle, triangle_grad};
 
@@ -283,28 +281,7 @@ fn profile_triangles(
         prof.lap("backward");
         let stats = triangle_stats(&t3, &view.camera, &s, &state);
         prof.lap("per-triangle stats");
-        // TriangleTrainer::raw_grads
-        let k = soup.rest_per_channel();
-        let nc = coeff_count(soup.active_sh_degree.min(soup.sh_degree));
-        let mut g_dc = vec![[0.0f32; 3]; n];
-        let mut g_rest = vec![0.0f32; n * k * 3];
-        for (i, dc) in g_dc.iter_mut().enumerate() {
-            *dc = g.sh[i * nc];
-            for kk in 1..nc {
-                let o = (i * k + kk - 1) * 3;
-                g_rest[o..o + 3].copy_from_slice(&g.sh[i * nc + kk]);
-            }
-        }
-        let mut g_o: Vec<f32> = (0..n)
-            .map(|i| {
-                let a = sigmoid(soup.opacity_raw[i]);
-                g.opacities[i] * a * (1.0 - a)
-            })
-            .collect();
-        let g_s: Vec<f32> = (0..n)
-            .map(|i| g.sigmas[i] * soup.sigma_raw[i].exp())
-            .collect();
-        let mut gv = g.vertices.clone();
+        let (mut gv, mut g_dc, g_rest, mut g_o, g_s) = triangles::raw_grads(&soup, &g);
         // regularisers: opacity mean, size
         let nf = n.max(1) as f64;
         let _mean_o = (0..n).map(|i| soup.opacity(i) as f64).sum::<f64>() / nf;
@@ -372,7 +349,7 @@ fn profile_gaussians(
         let cam = &view.camera;
         let d = 3;
         prof.lap("rest");
-        let g3 = raster(&m, d);
+        let g3 = m.to_raster_at(d);
         prof.lap("to raster (SH, σ, α)");
         let (img, state) = gaussian::rasterize(&g3, cam, &s);
         prof.lap("forward rasterise");
@@ -395,30 +372,8 @@ fn profile_gaussians(
         }
         prof.lap("densification stats");
         // GaussianTrainer::apply
-        let k = m.rest_per_channel();
-        let nc = coeff_count(d.min(m.sh_degree));
-        let mut g_means = gg.means.clone();
-        let mut g_dc = vec![[0.0f32; 3]; n];
-        let mut g_rest = vec![0.0f32; n * k * 3];
-        let mut g_o = vec![0.0f32; n];
-        let mut g_s = vec![[0.0f32; 3]; n];
-        let mut g_r = gg.rotations.clone();
-        for i in 0..n {
-            g_dc[i] = gg.sh[i * nc];
-            for kk in 1..nc {
-                let o = (i * k + kk - 1) * 3;
-                g_rest[o..o + 3].copy_from_slice(&gg.sh[i * nc + kk]);
-            }
-            let a = sigmoid(m.opacity_logits[i]);
-            g_o[i] = gg.opacities[i] * a * (1.0 - a) + reg.opacity_logits[i];
-            for j in 0..3 {
-                g_s[i][j] = gg.scales[i][j] * m.log_scales[i][j].exp() + reg.log_scales[i][j];
-                g_means[i][j] += reg.means[i][j];
-            }
-            for (r, dr) in g_r[i].iter_mut().zip(reg.rotations[i]) {
-                *r += dr;
-            }
-        }
+        let (mut g_means, mut g_dc, g_rest, g_o, mut g_s, mut g_r) =
+            gaussians::raw_grads(&m, &gg, &reg, d);
         prof.lap("raw grads + regularisers");
         groups.step(0, flat(&mut m.means), flat(&mut g_means));
         groups.step(1, flat(&mut m.sh_dc), flat(&mut g_dc));

@@ -88,18 +88,28 @@ impl Gaussians {
     /// sigmoid(v), quaternions as stored (normalised by the rasteriser), SH
     /// coefficient-major with the DC term first.
     pub fn to_raster(&self) -> splatkit_render::gaussian::Gaussians3 {
+        self.to_raster_at(self.sh_degree)
+    }
+
+    /// [`Gaussians::to_raster`] with the SH truncated to degree `d` (at most
+    /// the stored degree): what training renders during its SH warm-up.
+    /// Built in parallel.
+    pub fn to_raster_at(&self, d: usize) -> splatkit_render::gaussian::Gaussians3 {
+        use rayon::prelude::*;
         let n = self.len();
-        let mut sh = Vec::with_capacity(n * (self.sh_degree + 1).pow(2));
-        for i in 0..n {
-            sh.extend(self.sh_coeffs(i));
-        }
+        let d = d.min(self.sh_degree);
         splatkit_render::gaussian::Gaussians3 {
             means: self.means.clone(),
-            scales: (0..n).map(|i| self.scales(i)).collect(),
+            scales: (0..n).into_par_iter().map(|i| self.scales(i)).collect(),
             rotations: self.rotations.clone(),
-            opacities: (0..n).map(|i| self.opacity(i)).collect(),
-            sh,
-            sh_degree: self.sh_degree,
+            opacities: (0..n).into_par_iter().map(|i| self.opacity(i)).collect(),
+            sh: super::sh_rows(
+                &self.sh_dc,
+                &self.sh_rest,
+                self.rest_per_channel(),
+                (d + 1).pow(2),
+            ),
+            sh_degree: d,
         }
     }
 

@@ -33,6 +33,23 @@ pub fn sh_coeffs_of(dc: &[[f32; 3]], rest: &[f32], k: usize, i: usize) -> Vec<[f
     out
 }
 
+/// Every item's SH coefficients truncated to the first `keep` (DC, then
+/// the rest in order; `keep` at most k + 1), coefficient-major as the
+/// rasterisers take them (`keep` rows per item), built in parallel.
+pub fn sh_rows(dc: &[[f32; 3]], rest: &[f32], k: usize, keep: usize) -> Vec<[f32; 3]> {
+    use rayon::prelude::*;
+    let keep = keep.clamp(1, k + 1);
+    let mut sh = vec![[0.0f32; 3]; dc.len() * keep];
+    sh.par_chunks_mut(keep).enumerate().for_each(|(i, c)| {
+        c[0] = dc[i];
+        for (kk, ck) in c.iter_mut().enumerate().skip(1) {
+            let o = (i * k + kk - 1) * 3;
+            *ck = [rest[o], rest[o + 1], rest[o + 2]];
+        }
+    });
+    sh
+}
+
 pub use attributes::{Column, Element, Extras, Property, ScalarData, ScalarType};
 pub use bound::BoundGaussians;
 pub use camera::{Camera, CameraModel};

@@ -82,20 +82,22 @@ impl TriangleSoup {
     }
 
     /// The activated values the rasteriser takes, with the SH truncated to
-    /// the active degree (what the reference renders with).
+    /// the active degree (what the reference renders with). Built in
+    /// parallel.
     pub fn to_raster(&self) -> splatkit_render::triangle::Triangles3 {
+        use rayon::prelude::*;
         let n = self.len();
         let deg = self.active_sh_degree.min(self.sh_degree);
-        let keep = (deg + 1) * (deg + 1);
-        let mut sh = Vec::with_capacity(n * keep);
-        for i in 0..n {
-            sh.extend(self.sh_coeffs(i).into_iter().take(keep));
-        }
         splatkit_render::triangle::Triangles3 {
             vertices: self.triangles.clone(),
-            sigmas: (0..n).map(|i| self.sigma(i)).collect(),
-            opacities: (0..n).map(|i| self.opacity(i)).collect(),
-            sh,
+            sigmas: (0..n).into_par_iter().map(|i| self.sigma(i)).collect(),
+            opacities: (0..n).into_par_iter().map(|i| self.opacity(i)).collect(),
+            sh: super::sh_rows(
+                &self.sh_dc,
+                &self.sh_rest,
+                self.rest_per_channel(),
+                (deg + 1) * (deg + 1),
+            ),
             sh_degree: deg,
         }
     }

@@ -118,6 +118,25 @@ pub fn evaluate(
     }
 }
 
+/// The view training iteration `iteration` uses and the background it
+/// renders with: `view` as loaded (composited on `bg0`) with `bg0`, or, when
+/// `random` (`--random-background`), the view recomposited on that
+/// iteration's [`random_background`] with that colour.
+pub fn view_for_step(
+    view: &View,
+    bg0: [f32; 3],
+    random: bool,
+    seed: u64,
+    iteration: u64,
+) -> (std::borrow::Cow<'_, View>, [f32; 3]) {
+    if random {
+        let bg = random_background(seed, iteration);
+        (std::borrow::Cow::Owned(recomposite(view, bg0, bg)), bg)
+    } else {
+        (std::borrow::Cow::Borrowed(view), bg0)
+    }
+}
+
 /// The background of training iteration `iteration` with `--random-background`:
 /// a uniformly random colour from the seeded stream of that iteration
 /// (3DGS's `random_background`), so a resumed run draws the same colours.

@@ -271,16 +271,7 @@ pub fn to_raster(b: &BoundGaussians, active_degree: usize) -> Gaussians3 {
     let (means, rotations) = means_and_rotations(b);
     let thickness = b.log_thickness.exp();
     let d = active_degree.min(b.sh_degree);
-    let keep = (d + 1).pow(2) - 1;
-    let k = b.rest_per_channel();
-    let mut sh = Vec::with_capacity(b.len() * (keep + 1));
-    for i in 0..b.len() {
-        sh.push(b.sh_dc[i]);
-        for kk in 0..keep {
-            let o = (i * k + kk) * 3;
-            sh.push([b.sh_rest[o], b.sh_rest[o + 1], b.sh_rest[o + 2]]);
-        }
-    }
+    let sh = crate::model::sh_rows(&b.sh_dc, &b.sh_rest, b.rest_per_channel(), (d + 1).pow(2));
     Gaussians3 {
         means,
         scales: b

@@ -38,7 +38,7 @@ pub mod init;
 
 use rayon::prelude::*;
 use splatkit_render::depth_normal::normal_consistency;
-use splatkit_render::gaussian::{Gaussians3, RasterSettings, rasterize, render};
+use splatkit_render::gaussian::{RasterSettings, rasterize, render};
 use splatkit_render::gaussian_grad::{self, AuxGrads, GaussianGrads};
 use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
@@ -46,9 +46,7 @@ use splatkit_render::sh::coeff_count;
 use self::adc::{AdcParams, AdcState, densify_and_prune, reset_opacity};
 use super::checkpoint::{GroupState, find_values};
 use super::groups::{GroupSpec, Groups, Source, kept, split_sh_grad};
-use super::photometric::{
-    Eval, evaluate, loss_and_grad_weighted, psnr_of, random_background, recomposite,
-};
+use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of, view_for_step};
 use super::schedule::view_at;
 use super::sugar::{
     Neighbours, RawGrads, SUGAR_K, SdfParams, density_regularizer, entropy, sample_points,
@@ -180,28 +178,57 @@ fn flat<T: bytemuck::Pod>(v: &mut [T]) -> &mut [f32] {
     bytemuck::cast_slice_mut(v)
 }
 
-/// The rasteriser's Gaussians with SH truncated to degree `d`.
-pub fn raster(g: &Gaussians, d: usize) -> Gaussians3 {
-    let d = d.min(g.sh_degree);
-    let keep = (d + 1).pow(2);
-    let n = g.len();
-    let mut sh = Vec::with_capacity(n * keep);
-    let k = g.rest_per_channel();
-    for i in 0..n {
-        sh.push(g.sh_dc[i]);
-        for kk in 0..keep - 1 {
-            let o = (i * k + kk) * 3;
-            sh.push([g.sh_rest[o], g.sh_rest[o + 1], g.sh_rest[o + 2]]);
-        }
-    }
-    Gaussians3 {
-        means: g.means.clone(),
-        scales: (0..n).map(|i| g.scales(i)).collect(),
-        rotations: g.rotations.clone(),
-        opacities: (0..n).map(|i| g.opacity(i)).collect(),
-        sh,
-        sh_degree: d,
-    }
+/// Gradients with respect to the model's stored parameters (means, SH DC,
+/// SH rest (`rest_per_channel` × 3 per Gaussian), opacity logits, log
+/// scales, rotations) from the rasteriser's gradients `gg` of the
+/// activated values rendered at SH degree `d`, plus the regularisers'
+/// gradients `reg` (already with respect to the stored parameters).
+#[allow(clippy::type_complexity)]
+pub fn raw_grads(
+    m: &Gaussians,
+    gg: &GaussianGrads,
+    reg: &RawGrads,
+    d: usize,
+) -> (
+    Vec<[f32; 3]>,
+    Vec<[f32; 3]>,
+    Vec<f32>,
+    Vec<f32>,
+    Vec<[f32; 3]>,
+    Vec<[f32; 4]>,
+) {
+    let n = m.len();
+    let k = m.rest_per_channel();
+    let nc = coeff_count(d.min(m.sh_degree));
+    let g_means: Vec<[f32; 3]> = gg
+        .means
+        .par_iter()
+        .zip(&reg.means)
+        .map(|(x, y)| [x[0] + y[0], x[1] + y[1], x[2] + y[2]])
+        .collect();
+    let (g_dc, g_rest) = split_sh_grad(&gg.sh, n, nc, k);
+    let g_o: Vec<f32> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let a = sigmoid(m.opacity_logits[i]);
+            gg.opacities[i] * a * (1.0 - a) + reg.opacity_logits[i]
+        })
+        .collect();
+    let g_s: Vec<[f32; 3]> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            std::array::from_fn(|j| {
+                gg.scales[i][j] * m.log_scales[i][j].exp() + reg.log_scales[i][j]
+            })
+        })
+        .collect();
+    let g_r: Vec<[f32; 4]> = gg
+        .rotations
+        .par_iter()
+        .zip(&reg.rotations)
+        .map(|(a, b)| std::array::from_fn(|j| a[j] + b[j]))
+        .collect();
+    (g_means, g_dc, g_rest, g_o, g_s, g_r)
 }
 
 impl GaussianTrainer {
@@ -292,17 +319,18 @@ impl GaussianTrainer {
         let it1 = self.iteration + 1; // the reference's 1-based iteration
         let vi = view_at(train, p.seed, self.iteration);
         let mut s = self.settings();
-        let recomposited;
-        let view = if p.random_background {
-            s.background = random_background(p.seed, self.iteration);
-            recomposited = recomposite(&views[vi], p.background, s.background);
-            &recomposited
-        } else {
-            &views[vi]
-        };
+        let (view, bg) = view_for_step(
+            &views[vi],
+            p.background,
+            p.random_background,
+            p.seed,
+            self.iteration,
+        );
+        s.background = bg;
+        let view = &*view;
         let cam = &view.camera;
         let d = self.active_degree();
-        let g3 = raster(&self.model, d);
+        let g3 = self.model.to_raster_at(d);
         let (img, state) = rasterize(&g3, cam, &s);
         let (photo, d_rgb) = loss_and_grad_weighted(&img.rgb, view, 1.0 - p.lambda_dssim);
         let psnr = psnr_of(&img.rgb, view);
@@ -385,39 +413,9 @@ impl GaussianTrainer {
 
     /// Raw gradients from the rasteriser's plus `reg`, and the Adam steps.
     fn apply(&mut self, gg: &GaussianGrads, reg: &RawGrads, d: usize) {
+        let (mut g_means, mut g_dc, g_rest, g_o, mut g_s, mut g_r) =
+            raw_grads(&self.model, gg, reg, d);
         let m = &mut self.model;
-        let n = m.len();
-        let k = m.rest_per_channel();
-        let nc = coeff_count(d.min(m.sh_degree));
-        let add = |a: &[[f32; 3]], b: &[[f32; 3]]| -> Vec<[f32; 3]> {
-            a.par_iter()
-                .zip(b)
-                .map(|(x, y)| [x[0] + y[0], x[1] + y[1], x[2] + y[2]])
-                .collect()
-        };
-        let mut g_means = add(&gg.means, &reg.means);
-        let (mut g_dc, g_rest) = split_sh_grad(&gg.sh, n, nc, k);
-        let g_o: Vec<f32> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let a = sigmoid(m.opacity_logits[i]);
-                gg.opacities[i] * a * (1.0 - a) + reg.opacity_logits[i]
-            })
-            .collect();
-        let mut g_s: Vec<[f32; 3]> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                std::array::from_fn(|j| {
-                    gg.scales[i][j] * m.log_scales[i][j].exp() + reg.log_scales[i][j]
-                })
-            })
-            .collect();
-        let mut g_r: Vec<[f32; 4]> = gg
-            .rotations
-            .par_iter()
-            .zip(&reg.rotations)
-            .map(|(a, b)| std::array::from_fn(|j| a[j] + b[j]))
-            .collect();
         self.groups.step(0, flat(&mut m.means), flat(&mut g_means));
         self.groups.step(1, flat(&mut m.sh_dc), flat(&mut g_dc));
         self.groups.step(2, &mut m.sh_rest, &g_rest);
@@ -467,7 +465,7 @@ impl GaussianTrainer {
 
     /// PSNR / SSIM on the views `test` at the current SH degree.
     pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
-        let g3 = raster(&self.model, self.active_degree());
+        let g3 = self.model.to_raster_at(self.active_degree());
         let s = self.settings();
         evaluate(views, test, self.iteration, |v| {
             render(&g3, &v.camera, &s).rgb

@@ -3,6 +3,7 @@
 
 use rayon::prelude::*;
 use splatkit_render::dual::{Dual, Real};
+use splatkit_render::gaussian::quat_matrix;
 
 use super::RawGrads;
 use super::entropy::sigmoid;
@@ -55,25 +56,7 @@ fn rotation<T: Real>(q: [T; 4]) -> Option<[[T; 3]; 3]> {
         return None;
     }
     let inv = T::cst(1.0) / n2.sqrt();
-    let [w, x, y, z] = q.map(|v| v * inv);
-    let one = T::cst(1.0);
-    Some([
-        [
-            one - (y * y + z * z) * 2.0,
-            (x * y - w * z) * 2.0,
-            (x * z + w * y) * 2.0,
-        ],
-        [
-            (x * y + w * z) * 2.0,
-            one - (x * x + z * z) * 2.0,
-            (y * z - w * x) * 2.0,
-        ],
-        [
-            (x * z - w * y) * 2.0,
-            (y * z + w * x) * 2.0,
-            one - (x * x + y * y) * 2.0,
-        ],
-    ])
+    Some(quat_matrix(q.map(|v| v * inv)))
 }
 
 /// The activated geometry of every Gaussian.

@@ -43,16 +43,14 @@ use splatkit_render::depth_normal::normal_consistency;
 use splatkit_render::gaussian::RasterSettings;
 use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
-use splatkit_render::triangle::{Triangles3, rasterize, render};
+use splatkit_render::triangle::{rasterize, render};
 use splatkit_render::triangle_grad::{self, AuxGrads, TriangleGrads};
 use splatkit_render::triangle_stats::triangle_stats;
 
 use self::mcmc::{McmcParams, McmcState};
 use super::checkpoint::{GroupState, find_values};
 use super::groups::{GroupSpec, Groups, Source, split_sh_grad};
-use super::photometric::{
-    Eval, evaluate, loss_and_grad_weighted, psnr_of, random_background, recomposite,
-};
+use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of, view_for_step};
 use super::schedule::view_at;
 use crate::model::gaussians::sigmoid;
 use crate::model::rng::stream;
@@ -138,29 +136,37 @@ impl TriangleParams {
     }
 }
 
-/// The rasteriser's triangles at the soup's active SH degree: the values of
-/// [`TriangleSoup::to_raster`], built in parallel without a buffer per
-/// triangle.
-pub fn raster(soup: &TriangleSoup) -> Triangles3 {
+/// Gradients with respect to the soup's stored parameters (vertices, SH
+/// DC, SH rest (`rest_per_channel` × 3 per triangle), opacity logit, raw
+/// σ) from the rasteriser's gradients `g` of the activated values, at the
+/// soup's active SH degree. No regulariser is included.
+#[allow(clippy::type_complexity)]
+pub fn raw_grads(
+    soup: &TriangleSoup,
+    g: &TriangleGrads,
+) -> (
+    Vec<[[f32; 3]; 3]>,
+    Vec<[f32; 3]>,
+    Vec<f32>,
+    Vec<f32>,
+    Vec<f32>,
+) {
     let n = soup.len();
-    let d = soup.active_sh_degree.min(soup.sh_degree);
-    let keep = (d + 1) * (d + 1);
     let k = soup.rest_per_channel();
-    let mut sh = vec![[0.0f32; 3]; n * keep];
-    sh.par_chunks_mut(keep).enumerate().for_each(|(i, c)| {
-        c[0] = soup.sh_dc[i];
-        for (kk, ck) in c.iter_mut().enumerate().skip(1) {
-            let o = (i * k + kk - 1) * 3;
-            *ck = [soup.sh_rest[o], soup.sh_rest[o + 1], soup.sh_rest[o + 2]];
-        }
-    });
-    Triangles3 {
-        vertices: soup.triangles.clone(),
-        sigmas: (0..n).into_par_iter().map(|i| soup.sigma(i)).collect(),
-        opacities: (0..n).into_par_iter().map(|i| soup.opacity(i)).collect(),
-        sh,
-        sh_degree: d,
-    }
+    let nc = coeff_count(soup.active_sh_degree.min(soup.sh_degree));
+    let (dc, rest) = split_sh_grad(&g.sh, n, nc, k);
+    let o: Vec<f32> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let a = sigmoid(soup.opacity_raw[i]);
+            g.opacities[i] * a * (1.0 - a)
+        })
+        .collect();
+    let s: Vec<f32> = (0..n)
+        .into_par_iter()
+        .map(|i| g.sigmas[i] * soup.sigma_raw[i].exp())
+        .collect();
+    (g.vertices.clone(), dc, rest, o, s)
 }
 
 /// Names of the optimiser groups, in order.
@@ -307,16 +313,17 @@ impl TriangleTrainer {
         let p = self.params.clone();
         let vi = view_at(train, p.seed, self.iteration);
         let mut s = self.settings();
-        let recomposited;
-        let view = if p.random_background {
-            s.background = random_background(p.seed, self.iteration);
-            recomposited = recomposite(&views[vi], p.background, s.background);
-            &recomposited
-        } else {
-            &views[vi]
-        };
+        let (view, bg) = view_for_step(
+            &views[vi],
+            p.background,
+            p.random_background,
+            p.seed,
+            self.iteration,
+        );
+        s.background = bg;
+        let view = &*view;
         self.soup.active_sh_degree = self.active_degree();
-        let t3 = raster(&self.soup);
+        let t3 = self.soup.to_raster();
         let (img, state) = rasterize(&t3, &view.camera, &s);
         let (photo, d_rgb) = loss_and_grad_weighted(&img.rgb, view, 1.0 - p.lambda_dssim);
         let psnr = psnr_of(&img.rgb, view);
@@ -346,7 +353,7 @@ impl TriangleTrainer {
         };
         let grads = triangle_grad::backward_aux(&t3, &view.camera, &s, &state, &d_rgb, &aux);
         let stats = triangle_stats(&t3, &view.camera, &s, &state);
-        let (mut gv, mut g_dc, g_rest, mut g_o, mut g_s) = self.raw_grads(&grads);
+        let (mut gv, mut g_dc, g_rest, mut g_o, mut g_s) = raw_grads(&self.soup, &grads);
         let n = self.soup.len();
         let nf = n.max(1) as f64;
         // λ_o · mean(opacity)
@@ -388,37 +395,6 @@ impl TriangleTrainer {
             psnr,
             count: self.soup.len(),
         }
-    }
-
-    /// Gradients w.r.t. the raw parameters (vertices, SH DC, SH rest,
-    /// opacity logit, raw σ) from the rasteriser's.
-    #[allow(clippy::type_complexity)]
-    fn raw_grads(
-        &self,
-        g: &TriangleGrads,
-    ) -> (
-        Vec<[[f32; 3]; 3]>,
-        Vec<[f32; 3]>,
-        Vec<f32>,
-        Vec<f32>,
-        Vec<f32>,
-    ) {
-        let n = self.soup.len();
-        let k = self.soup.rest_per_channel();
-        let nc = coeff_count(self.soup.active_sh_degree.min(self.soup.sh_degree));
-        let (dc, rest) = split_sh_grad(&g.sh, n, nc, k);
-        let o: Vec<f32> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let a = sigmoid(self.soup.opacity_raw[i]);
-                g.opacities[i] * a * (1.0 - a)
-            })
-            .collect();
-        let s: Vec<f32> = (0..n)
-            .into_par_iter()
-            .map(|i| g.sigmas[i] * self.soup.sigma_raw[i].exp())
-            .collect();
-        (g.vertices.clone(), dc, rest, o, s)
     }
 
     /// Densification / pruning at the step boundaries of the schedule.
@@ -464,7 +440,7 @@ impl TriangleTrainer {
     pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
         let mut soup = self.soup.clone();
         soup.active_sh_degree = self.active_degree();
-        let t3 = raster(&soup);
+        let t3 = soup.to_raster();
         let s = self.settings();
         evaluate(views, test, self.iteration, |v| {
             render(&t3, &v.camera, &s).rgb
