@@ -35,16 +35,10 @@ pub fn keep_freed_memory() -> bool {
 #[cfg(test)]
 mod tests {
     /// glibc accepts both limits (a glibc that capped the mmap threshold,
-    /// as old ones did at 32 MB, would refuse and this would fail); after
-    /// it, a large block freed and asked for again still works.
+    /// as old ones did at 32 MB, would refuse and this would fail).
     #[test]
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     fn glibc_takes_the_limits() {
         assert!(super::keep_freed_memory());
-        let a = vec![1u8; 64 << 20];
-        assert_eq!(a.iter().map(|&v| v as usize).sum::<usize>(), 64 << 20);
-        drop(a);
-        let b = vec![0u8; 64 << 20];
-        assert!(b.iter().all(|&v| v == 0), "reused memory comes back zeroed");
     }
 }
