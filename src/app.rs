@@ -63,7 +63,7 @@ pub enum Command {
 /// `main` of the umbrella binary.
 pub fn splatkit_main() -> ! {
     let cli = Cli::parse();
-    crate::cli::exit_with(match cli.command {
+    crate::cli::run_command(move || match cli.command {
         Command::Info(a) => info::run(a),
         Command::PruneTriangles(a) => prune_triangles::run(a),
         Command::ExportOff(a) => export_off::run(a),
@@ -92,7 +92,8 @@ macro_rules! single_command {
                 #[command(flatten)]
                 args: $args,
             }
-            crate::cli::exit_with($run(One::parse().args))
+            let args = One::parse().args;
+            crate::cli::run_command(move || $run(args))
         }
     };
 }

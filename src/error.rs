@@ -20,6 +20,11 @@ pub enum Error {
     /// data, inconsistent sizes, an option that does not apply).
     #[error("{0}")]
     Invalid(String),
+    /// A usage error found while running (an output path that is an
+    /// input, a flag whose value cannot work with the data): the command
+    /// exits with 2, as for the usage errors the argument parser finds.
+    #[error("{0}")]
+    Usage(String),
 }
 
 /// Result alias used across the library.
@@ -42,6 +47,11 @@ impl Error {
         }
     }
 
+    /// A usage error (exit code 2).
+    pub fn usage(msg: impl Into<String>) -> Self {
+        Error::Usage(msg.into())
+    }
+
     /// Invalid input or options.
     pub fn invalid(msg: impl Into<String>) -> Self {
         Error::Invalid(msg.into())
@@ -61,6 +71,7 @@ impl Error {
                 msg,
             },
             Error::Invalid(msg) => Error::Invalid(format!("{role}: {msg}")),
+            Error::Usage(msg) => Error::Usage(format!("{role}: {msg}")),
         }
     }
 }

@@ -802,3 +802,19 @@ fn mesh_commands_refuse_points_and_gaussians() {
         assert!(!out_path.exists());
     }
 }
+
+// Issue 23: one file per promise, each run under the same 2 GB limit.
+#[path = "hostile/budget.rs"]
+mod budget;
+#[path = "hostile/empty.rs"]
+mod empty;
+#[path = "hostile/finite.rs"]
+mod finite;
+#[path = "hostile/inputs.rs"]
+mod inputs;
+#[path = "hostile/messages.rs"]
+mod messages;
+#[path = "hostile/reads.rs"]
+mod reads;
+#[path = "hostile/transaction.rs"]
+mod transaction;

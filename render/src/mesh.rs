@@ -145,7 +145,9 @@ pub fn render(positions: &[[f32; 3]], faces: &[[u32; 3]], cam: &Camera, near: f6
                 if hi < a as f64 {
                     return (a, a);
                 }
-                (lo.max(a), (hi as usize + 1).min(b))
+                // `as usize` saturates for huge boxes (a vertex at 1e38):
+                // add without overflowing
+                (lo.max(a), (hi as usize).saturating_add(1).min(b))
             };
             let (px0, px1) = span(f.bbox[0], f.bbox[2], x0, x1);
             let (py0, py1) = span(f.bbox[1], f.bbox[3], y0, y1);

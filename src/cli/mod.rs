@@ -88,6 +88,20 @@ impl Common {
         self.json.as_ref().is_some_and(|p| p.as_os_str() == "-")
     }
 
+    /// The pre-check of a command's data output `-o PATH`, before any work:
+    /// [`check_output_file`] (its folder exists and takes a staging file;
+    /// it is not a folder, nor one of the run's inputs), stdout not also
+    /// wanted by `--json`, and, for a `binary` format, stdout not a
+    /// terminal.
+    pub fn check_output(&self, path: &Path, binary: bool) -> anyhow::Result<()> {
+        check_output_file(path, "-o")?;
+        self.check_stdout_free(path)?;
+        if binary {
+            check_binary_stdout(path)?;
+        }
+        Ok(())
+    }
+
     /// Fails (usage) when both the data output and `--json` want stdout.
     pub fn check_stdout_free(&self, output: &Path) -> anyhow::Result<()> {
         if output.as_os_str() == "-" && self.json_to_stdout() {
@@ -104,7 +118,11 @@ impl Common {
         };
         let text = serde_json::to_string_pretty(value)?;
         if path.as_os_str() == "-" {
-            println!("{text}");
+            // Held until the run's outputs are committed: a report on
+            // stdout never claims a run whose files then failed to land.
+            if let Err(text) = crate::io::transaction::defer_stdout(text) {
+                println!("{text}");
+            }
         } else {
             crate::io::write_output(path, |w| {
                 writeln!(w, "{text}").map_err(crate::io::source::werr)
@@ -192,9 +210,38 @@ pub fn fraction_f32(s: &str) -> Result<f32, String> {
     fraction_f64(s).map(|v| v as f32)
 }
 
+/// Runs one command inside an output transaction
+/// ([`crate::io::transaction`]): everything it writes is committed together
+/// when it returns `Ok`, and removed when it fails; then exits as
+/// [`exit_with`] says.
+pub fn run_command(f: impl FnOnce() -> anyhow::Result<()>) -> ! {
+    let tx = crate::io::transaction::Transaction::begin();
+    let result = f();
+    let result = match result {
+        Ok(()) => tx.commit().map_err(anyhow::Error::from),
+        Err(e) => {
+            drop(tx);
+            Err(e)
+        }
+    };
+    exit_with(result)
+}
+
+/// True when `e` (or an error it wraps) is a usage error: a [`UsageError`]
+/// or a library [`crate::Error::Usage`].
+pub fn is_usage(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<UsageError>().is_some()
+            || matches!(
+                c.downcast_ref::<crate::Error>(),
+                Some(crate::Error::Usage(_))
+            )
+    })
+}
+
 /// Turns a command's result into the process exit code: 0 on success, 2
-/// for a [`UsageError`], 1 otherwise, with `error: …` (and its causes) on
-/// stderr.
+/// for a usage error ([`is_usage`]), 1 otherwise, with `error: …` (and its
+/// causes) on stderr.
 pub fn exit_with(result: anyhow::Result<()>) -> ! {
     match result {
         Ok(()) => std::process::exit(0),
@@ -203,8 +250,11 @@ pub fn exit_with(result: anyhow::Result<()>) -> ! {
             if is_broken_pipe(&e) {
                 std::process::exit(0);
             }
-            if e.downcast_ref::<UsageError>().is_some() {
+            if is_usage(&e) {
                 eprintln!("error: {e}");
+                for cause in e.chain().skip(1) {
+                    eprintln!("  caused by: {cause}");
+                }
                 std::process::exit(2);
             }
             eprintln!("error: {e}");
@@ -224,12 +274,17 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 /// Checks, before any work, that an output file can be created: `-` is
-/// stdout; otherwise its folder must exist and the path must not be a
-/// folder. `what` names the flag in the message.
+/// stdout; otherwise its folder must exist, the path must not be a folder,
+/// a staging file can be created in that folder (created and removed
+/// again), and the path is not one of the run's inputs (declared with
+/// [`crate::io::transaction::note_output`]: an output that resolves to an
+/// input file or lies in an input folder is a usage error, exit 2). `what`
+/// names the flag in the message.
 pub fn check_output_file(path: &Path, what: &str) -> anyhow::Result<()> {
     if path.as_os_str() == "-" {
         return Ok(());
     }
+    crate::io::transaction::note_output(path, what)?;
     if path.is_dir() {
         anyhow::bail!(
             "{what} {}: is a folder, expected a file path",
@@ -247,30 +302,27 @@ pub fn check_output_file(path: &Path, what: &str) -> anyhow::Result<()> {
             dir.display()
         );
     }
+    crate::io::transaction::probe_writable(path)
+        .map_err(|e| anyhow::anyhow!("{what} {}: cannot write there: {e}", path.display()))?;
     Ok(())
 }
 
-/// Bytes of memory this process may use: the smaller of the machine's
-/// total memory (`/proc/meminfo`) and the address-space limit
-/// (`ulimit -v`, from `/proc/self/limits`); `None` where neither can be read.
-pub fn memory_budget() -> Option<u64> {
-    let total = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
-        t.lines()
-            .find(|l| l.starts_with("MemTotal:"))
-            .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
-            .map(|kib| kib * 1024)
-    });
-    let limit = std::fs::read_to_string("/proc/self/limits")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("Max address space"))
-                .and_then(|l| l.split_whitespace().nth(3)?.parse::<u64>().ok())
-        });
-    match (total, limit) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
+pub use crate::io::budget::memory_budget;
+
+/// Records paths named on the command line as inputs of the run before any
+/// work, whether or not the run ends up reading them (a `--cameras` that
+/// `--thickness` makes unused is still the user's file): folders with
+/// [`crate::io::transaction::note_input_dir`], files with `note_input`.
+/// An output already declared over one of them is a usage error.
+pub fn declare_inputs(paths: &[Option<&Path>]) -> anyhow::Result<()> {
+    for p in paths.iter().flatten() {
+        if p.is_dir() {
+            crate::io::transaction::note_input_dir(p)?;
+        } else if p.exists() {
+            crate::io::transaction::note_input(p)?;
+        }
     }
+    Ok(())
 }
 
 /// Refuses to write binary data to a terminal.

@@ -1,12 +1,14 @@
 //! The orbit flags shared by the commands that can make up cameras when a
 //! scene comes without a camera file (`render`, `splat2points`).
 
+use std::path::Path;
+
 use clap::Args;
 use glam::DVec3;
 
 use super::usage;
 use crate::io::cameras::MAX_PIXELS;
-use crate::model::OrbitSpec;
+use crate::model::{Camera, OrbitSpec};
 
 /// The most views one orbit ring may have.
 pub const MAX_ORBIT_VIEWS: usize = 1000;
@@ -121,4 +123,58 @@ impl OrbitArgs {
             up: DVec3::new(self.up[0], self.up[1], self.up[2]),
         })
     }
+}
+
+/// Bytes of image buffers for views of the sizes `cams`: the largest view's
+/// pixels × `per_view` (the buffers of the one view being worked on at a
+/// time) plus the pixels of all views × `held` (the buffers kept for every
+/// view, e.g. photos held in memory for training). Saturating, so an
+/// overflow is an estimate of `u64::MAX` and is refused.
+pub fn image_bytes(cams: &[Camera], per_view: u64, held: u64) -> u64 {
+    let pixels = |c: &Camera| u64::from(c.width).saturating_mul(u64::from(c.height));
+    let largest = cams.iter().map(pixels).max().unwrap_or(0);
+    let all = cams
+        .iter()
+        .map(pixels)
+        .fold(0u64, |a, p| a.saturating_add(p));
+    largest
+        .saturating_mul(per_view)
+        .saturating_add(all.saturating_mul(held))
+}
+
+/// Where an image size came from, for [`check_image_budget`].
+#[derive(Clone, Copy, Debug)]
+pub enum SizeFrom<'a> {
+    /// A flag and its value as given (`--size 16384x16384`): a refusal is a
+    /// usage error (exit 2).
+    Flag(&'a str),
+    /// A camera file (or data folder): a refusal is an error (exit 1)
+    /// naming it.
+    File(&'a Path),
+}
+
+/// Refuses `bytes` of image buffers beyond the memory budget
+/// ([`crate::io::budget::check`]): the message names where the sizes came
+/// from (`from`), `what` the buffers are (e.g. "the render buffers of 8
+/// views of 16384x16384"), the estimate and the budget. A size from a flag
+/// is a usage error (exit 2), one from a file an error (exit 1).
+pub fn check_image_budget(from: SizeFrom, what: &str, bytes: u64) -> anyhow::Result<()> {
+    match from {
+        SizeFrom::Flag(flag) => crate::io::budget::check(&format!("{flag}: {what}"), bytes)
+            .map_err(|e| usage(e.to_string())),
+        SizeFrom::File(p) => {
+            crate::io::budget::check(&format!("{}: {what}", p.display()), bytes)?;
+            Ok(())
+        }
+    }
+}
+
+/// `W`x`H` of the largest of `cams` (by pixel count), for messages.
+pub fn largest_size(cams: &[Camera]) -> String {
+    cams.iter()
+        .max_by_key(|c| u64::from(c.width) * u64::from(c.height))
+        .map_or_else(
+            || "0x0".to_string(),
+            |c| format!("{}x{}", c.width, c.height),
+        )
 }

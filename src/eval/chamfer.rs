@@ -185,6 +185,23 @@ pub fn chamfer_generic(pred: &Cloud, gt: &Cloud, p: &GenericParams) -> Result<Ge
     let cap = p.max_dist.unwrap_or(f64::INFINITY);
     let kept = |d: &[f64]| -> Vec<f64> { d.iter().copied().filter(|&x| x < cap).collect() };
     let (acc_k, comp_k) = (kept(&acc), kept(&comp));
+    // Statistics over no distance mean nothing (they would print as null
+    // with exit 0): every distance of a side beyond --max-dist is an error.
+    for (k, side, n) in [
+        (&acc_k, "prediction → ground truth (accuracy)", acc.len()),
+        (
+            &comp_k,
+            "ground truth → prediction (completeness)",
+            comp.len(),
+        ),
+    ] {
+        if k.is_empty() {
+            return Err(Error::invalid(format!(
+                "--max-dist {cap}: all {n} {side} distances are at or beyond it, so no \
+                 statistic is left; raise --max-dist"
+            )));
+        }
+    }
     let accuracy = DistanceStats::from_distances(&acc_k);
     let completeness = DistanceStats::from_distances(&comp_k);
     let mean_sq = |d: &[f64]| d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64;

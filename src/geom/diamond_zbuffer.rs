@@ -71,7 +71,8 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
                 if b < 0.0 || a >= n as f64 || a > b {
                     return (0, 0);
                 }
-                (a as usize, (b as usize + 1).min(n))
+                // `as usize` saturates for huge boxes: add without overflowing
+                (a as usize, (b as usize).saturating_add(1).min(n))
             };
             let prepared = tris.map(|t| t.map(|t| RayTriangle::new(&t.map(|k| v[k]))));
             let (px0, px1) = span(x0, x1, w);

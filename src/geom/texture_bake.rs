@@ -457,6 +457,34 @@ impl Default for BakeParams {
     }
 }
 
+/// Bytes per atlas texel a bake holds: the accumulators (RGB sums 12,
+/// counts 4), the 8-bit texture (3) and, when it is written, the PNG
+/// encoder's raw and filtered rows and compressed output (at most 3 each).
+pub const BAKE_BYTES_PER_TEXEL: u64 = 12 + 4 + 3 + 9;
+/// Bytes per mesh face a bake holds: the per-face colour sums and counts
+/// of the views (24 + 8) and of the bound Gaussians (24 + 4), the fallback
+/// colour (16), and in the textured mesh its corner UVs (24) and a copy of
+/// the face (12).
+pub const BAKE_BYTES_PER_FACE: u64 = 24 + 8 + 24 + 4 + 16 + 24 + 12;
+/// Bytes per pixel of the one view a bake renders at a time: the mesh
+/// z-buffer (face 4, barycentrics 8, depth 4, normal 12 = 28) and the
+/// Gaussian render (52 of output + 12 of working buffers = 64).
+pub const BAKE_BYTES_PER_VIEW_PIXEL: u64 = 28 + 64;
+
+/// Bytes [`bake_texture`] needs for a mesh of `faces` faces in squares of
+/// `square` texels, rendered from views whose largest has
+/// `largest_view_pixels` pixels: side² × [`BAKE_BYTES_PER_TEXEL`] (side =
+/// [`Atlas::side_for`]) + faces × [`BAKE_BYTES_PER_FACE`] +
+/// largest_view_pixels × [`BAKE_BYTES_PER_VIEW_PIXEL`]; saturating. The
+/// mesh's vertices and the Gaussians, already in memory, are not counted.
+pub fn bake_bytes(faces: usize, square: usize, largest_view_pixels: u64) -> u64 {
+    let side = Atlas::side_for(faces, square);
+    side.saturating_mul(side)
+        .saturating_mul(BAKE_BYTES_PER_TEXEL)
+        .saturating_add((faces as u64).saturating_mul(BAKE_BYTES_PER_FACE))
+        .saturating_add(largest_view_pixels.saturating_mul(BAKE_BYTES_PER_VIEW_PIXEL))
+}
+
 /// Checks the atlas size against `max_texture` without allocating; the
 /// error names the size, the memory it would take and the flags to change.
 pub fn check_texture_size(faces: usize, p: &BakeParams) -> Result<Atlas> {
@@ -546,6 +574,36 @@ mod tests {
         // SuGaR's OOM example: 2M triangles at square 10 is about 10k texels
         assert_eq!(Atlas::side_for(2_000_000, 10), 10010);
         assert!(Atlas::new(10, 3).is_err());
+    }
+
+    /// The estimate covers what a bake allocates: the Baker's vectors
+    /// (their real element sizes), the 8-bit texture, and one view's mesh
+    /// z-buffer and Gaussian render; the 60k faces at square 90 is
+    /// 15660² texels, several GiB.
+    #[test]
+    fn bake_bytes_cover_the_allocations() {
+        use std::mem::size_of;
+        for (faces, square, px) in [(10usize, 8usize, 64u64 * 48), (60_000, 90, 0), (7, 4, 1)] {
+            let a = Atlas::new(faces, square).unwrap();
+            let t = (a.size() * a.size()) as u64;
+            let baker = t * (size_of::<[f32; 3]>() + size_of::<u32>()) as u64
+                + faces as u64 * (size_of::<[f64; 3]>() + size_of::<u64>()) as u64;
+            let texture = t * size_of::<[u8; 3]>() as u64;
+            let fallback = faces as u64 * size_of::<Option<[f32; 3]>>() as u64;
+            let view = px
+                * (size_of::<u32>()
+                    + size_of::<[f32; 2]>()
+                    + size_of::<f32>()
+                    + size_of::<[f32; 3]>()) as u64
+                + px * 52;
+            assert!(
+                bake_bytes(faces, square, px) >= baker + texture + fallback + view,
+                "{faces} {square}"
+            );
+        }
+        assert_eq!(Atlas::side_for(60_000, 90), 15660);
+        assert!(bake_bytes(60_000, 90, 0) > 6 << 30);
+        assert_eq!(bake_bytes(usize::MAX, 256, u64::MAX), u64::MAX);
     }
 
     fn random_bary(rng: &mut impl rand::Rng) -> [f64; 3] {

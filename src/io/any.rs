@@ -209,6 +209,85 @@ pub fn load_bound(path: &Path, command: &str) -> Result<(BoundGaussians, Gaussia
     Ok((b, g))
 }
 
+/// Refuses a mesh with a NaN or infinite vertex coordinate (every vertex,
+/// used by a face or not: an optimiser moves them all), naming `name`, the
+/// vertex (0-based) and the coordinate, e.g. `mesh.ply: vertex 17 has a
+/// non-finite coordinate (y = NaN)`. For the commands that optimise, bind
+/// or fuse a mesh (`refine`, `bind-gaussians`, `tsdf-fuse`); `clean` (which
+/// removes such faces), `info` and `render` (which draws what is finite)
+/// read meshes without it.
+pub fn check_finite_mesh(name: &str, mesh: &Mesh) -> Result<()> {
+    match ply::first_non_finite(mesh.vertices.as_flattened()) {
+        Some(t) => Err(Error::format(
+            name,
+            format!(
+                "vertex {} has a non-finite coordinate ({} = {}): this command needs finite \
+                 vertices (`clean` removes the faces that use such vertices)",
+                t / 3,
+                ["x", "y", "z"][t % 3],
+                mesh.vertices[t / 3][t % 3]
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Refuses a triangle soup with a NaN or infinite value in what a trainer
+/// reads: vertex coordinates, opacity, sigma, SH (DC and rest). The error
+/// names `name`, the triangle (0-based) and the value, e.g. `triangle 4
+/// has sigma = inf, not a finite number`.
+pub fn check_finite_soup(name: &str, soup: &TriangleSoup) -> Result<()> {
+    let k3 = soup.rest_per_channel() * 3;
+    // (values, values per row, name of the value at a position in a row)
+    type Named<'a> = (&'a [f32], usize, &'a dyn Fn(usize) -> String);
+    let arrays: [Named; 5] = [
+        (soup.triangles.as_flattened().as_flattened(), 9, &|j| {
+            format!("vertex {} {}", j / 3, ["x", "y", "z"][j % 3])
+        }),
+        (&soup.opacity_raw, 1, &|_| "opacity".into()),
+        (&soup.sigma_raw, 1, &|_| "sigma".into()),
+        (soup.sh_dc.as_flattened(), 3, &|j| format!("SH DC {j}")),
+        (&soup.sh_rest, k3.max(1), &|j| format!("SH rest {j}")),
+    ];
+    for (values, width, what) in arrays {
+        if let Some(t) = ply::first_non_finite(values) {
+            return Err(Error::format(
+                name,
+                format!(
+                    "triangle {} has {} = {}, not a finite number",
+                    t / width,
+                    what(t % width),
+                    values[t]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// [`load_mesh`], then [`check_finite_mesh`]: for commands that bind or
+/// optimise the mesh.
+pub fn load_mesh_finite(path: &Path, command: &str) -> Result<Mesh> {
+    let m = load_mesh(path, command)?;
+    check_finite_mesh(&shown(path, false), &m)?;
+    Ok(m)
+}
+
+/// [`load_gaussians`], then [`ply::gaussians::check_finite`]: for commands
+/// that train from the Gaussians or take values from them.
+pub fn load_gaussians_finite(path: &Path, command: &str) -> Result<Gaussians> {
+    let g = load_gaussians(path, command)?;
+    ply::gaussians::check_finite(&shown(path, false), &g)?;
+    Ok(g)
+}
+
+/// [`load_soup`], then [`check_finite_soup`]: for commands that train it.
+pub fn load_soup_finite(path: &Path, command: &str) -> Result<TriangleSoup> {
+    let s = load_soup(path, command)?;
+    check_finite_soup(&shown(path, false), &s)?;
+    Ok(s)
+}
+
 /// Writes Gaussians as a binary little-endian 3DGS PLY, atomically
 /// (`-` = stdout).
 pub fn save_gaussians(path: &Path, g: &Gaussians) -> Result<()> {

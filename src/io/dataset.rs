@@ -81,6 +81,11 @@ pub struct DatasetOptions {
     /// Linear RGB in [0, 1] that photos with an alpha channel are composited
     /// onto.
     pub background: [f32; 3],
+    /// Bytes per pixel the caller will need, beyond the loaded views, for
+    /// the one view it works on at a time (a training step's buffers): added
+    /// to the memory estimate [`views_bytes`] checked before any photo is
+    /// decoded. 0 counts the loaded views only.
+    pub work_bytes_per_pixel: u64,
 }
 
 impl Default for DatasetOptions {
@@ -91,8 +96,80 @@ impl Default for DatasetOptions {
             resolution: None,
             masks: MaskMode::Auto,
             background: [0.0; 3],
+            work_bytes_per_pixel: 0,
         }
     }
+}
+
+/// Bytes per pixel (at the loading size) every loaded [`View`] holds: the
+/// linear RGB image (3 × f32 = 12), the mask (1 byte as `bool`) and the
+/// alpha (f32, 4; counted whether or not the photos have one).
+pub const VIEW_BYTES_PER_PIXEL: u64 = 12 + 1 + 4;
+
+/// Bytes per pixel of a photo file (at its stored size, at most its
+/// camera's) while it is decoded: 16-bit RGBA samples (8), linear RGB and
+/// alpha in f32 before box filtering (12 + 4), and its mask decoded alike (8).
+pub const DECODE_BYTES_PER_PIXEL: u64 = 8 + 16 + 8;
+
+/// Bytes needed to load `cameras`' photos at integer downscale `k` and work
+/// on them: Σ over views of (w/k)·(h/k) × [`VIEW_BYTES_PER_PIXEL`] (all
+/// views are held) + the largest camera's w·h × [`DECODE_BYTES_PER_PIXEL`] ×
+/// the photos decoded at once (`min(threads, views)`) + the largest view's
+/// (w/k)·(h/k) × `work_bytes_per_pixel` (the caller's buffers for one view).
+/// Saturating, so an overflow is refused as too large.
+pub fn views_bytes(cameras: &[Camera], k: u32, threads: usize, work_bytes_per_pixel: u64) -> u64 {
+    let k = u64::from(k.max(1));
+    let full = |c: &Camera| u64::from(c.width).saturating_mul(u64::from(c.height));
+    let scaled = |c: &Camera| (u64::from(c.width) / k).saturating_mul(u64::from(c.height) / k);
+    let held = cameras
+        .iter()
+        .map(scaled)
+        .fold(0u64, |a, p| a.saturating_add(p))
+        .saturating_mul(VIEW_BYTES_PER_PIXEL);
+    let at_once = threads.clamp(1, cameras.len().max(1)) as u64;
+    let decode = cameras
+        .iter()
+        .map(full)
+        .max()
+        .unwrap_or(0)
+        .saturating_mul(DECODE_BYTES_PER_PIXEL)
+        .saturating_mul(at_once);
+    let work = cameras
+        .iter()
+        .map(scaled)
+        .max()
+        .unwrap_or(0)
+        .saturating_mul(work_bytes_per_pixel);
+    held.saturating_add(decode).saturating_add(work)
+}
+
+/// Refuses to load `cameras`' photos at downscale `k` when [`views_bytes`]
+/// (with the global thread pool's size) is beyond the memory budget
+/// ([`crate::io::budget::check`]); `source` (the data folder or camera
+/// file the sizes come from) is named in the message.
+pub fn check_views_budget(
+    source: &Path,
+    cameras: &[Camera],
+    k: u32,
+    work_bytes_per_pixel: u64,
+) -> Result<()> {
+    let (w, h) = cameras
+        .iter()
+        .max_by_key(|c| u64::from(c.width) * u64::from(c.height))
+        .map_or((0, 0), |c| (c.width / k.max(1), c.height / k.max(1)));
+    crate::io::budget::check(
+        &format!(
+            "{}: the photos of {} views (largest {w}x{h} at downscale {k}) and their training buffers",
+            source.display(),
+            cameras.len()
+        ),
+        views_bytes(
+            cameras,
+            k,
+            rayon::current_num_threads(),
+            work_bytes_per_pixel,
+        ),
+    )
 }
 
 /// A loaded data set.
@@ -128,6 +205,7 @@ pub fn load_dataset(root: &Path, opts: &DatasetOptions) -> Result<Dataset> {
             root.display()
         )));
     }
+    crate::io::transaction::note_input_dir(root)?;
     let Some((format, source)) = resolve_camera_source(root) else {
         return Err(Error::invalid(format!(
             "{}: no camera data found (expected a COLMAP model in the folder, sparse/0 or sparse; \
@@ -203,6 +281,8 @@ pub fn load_dataset(root: &Path, opts: &DatasetOptions) -> Result<Dataset> {
         })?),
     };
     let downscale = choose_downscale(root, &cameras, opts, half)?;
+    // every photo is held in memory: refused before any is decoded
+    check_views_budget(root, &cameras, downscale, opts.work_bytes_per_pixel)?;
     let views = load_views_from_files(
         &cameras,
         &files,

@@ -41,6 +41,7 @@ pub fn camera_stem(cam: &Camera) -> String {
 
 /// The first of `names` that is a file in `dir`, or an error listing them.
 fn find_in(dir: &Path, what: &str, cam: &Camera, names: &[String]) -> Result<PathBuf> {
+    crate::io::transaction::note_input_dir(dir)?;
     names
         .iter()
         .map(|n| dir.join(n))

@@ -68,7 +68,7 @@ pub struct RgbImage {
 /// its frame info and samples. Errors name the file.
 pub fn decode_png(path: &Path, t: png::Transformations) -> Result<(png::OutputInfo, Vec<u8>)> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(&name, e))?;
+    let bytes = crate::io::source::read_file(path)?;
     decode_png_bytes(&name, &bytes, t)
 }
 
@@ -174,7 +174,7 @@ pub fn to_u8(v: f32) -> u8 {
 /// (as the 2DGS DTU culling reads masks).
 pub fn read_mask(path: &Path) -> Result<Mask> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(&name, e))?;
+    let bytes = crate::io::source::read_file(path)?;
     parse_mask(&name, &bytes)
 }
 

@@ -2,6 +2,7 @@
 //! types; writers take them. Paths of `-` mean stdin / stdout.
 
 pub mod any;
+pub mod budget;
 pub mod cameras;
 pub mod dataset;
 pub mod depth;
@@ -17,6 +18,7 @@ pub mod ply;
 pub mod source;
 pub mod tnt;
 pub mod torch_pt;
+pub mod transaction;
 pub mod views;
 
 pub use source::{Input, StagedDir, read_input, write_output};

@@ -172,7 +172,7 @@ fn attach_texture(mesh: &mut Mesh, mats: &ObjMaterials, base: &Path) {
     let mut entries: Vec<MtlEntry> = Vec::new();
     for lib in &mats.libs {
         for f in mtl_files(lib, base) {
-            if let Ok(text) = std::fs::read(&f) {
+            if let Ok(text) = crate::io::source::read_file(&f) {
                 let dir = f.parent().unwrap_or(Path::new("."));
                 entries.extend(parse_mtl(&String::from_utf8_lossy(&text), dir));
             }

@@ -32,6 +32,7 @@ const EXTS: [&str; 6] = ["png", "jpg", "jpeg", "PNG", "JPG", "JPEG"];
 /// The files of `dir` that look like images, sorted by name.
 fn image_files(dir: &Path) -> Result<Vec<PathBuf>> {
     let name = dir.display().to_string();
+    crate::io::transaction::note_input_dir(dir)?;
     let rd = std::fs::read_dir(dir).map_err(|e| Error::io(&name, e))?;
     let mut v: Vec<PathBuf> = rd
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -115,7 +116,7 @@ pub fn read_rgb(path: &Path) -> Result<RgbImage> {
         return read_png_rgb(path);
     }
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(&name, e))?;
+    let bytes = crate::io::source::read_file(path)?;
     let mut d = jpeg_decoder::Decoder::new(std::io::Cursor::new(&bytes));
     d.read_info()
         .map_err(|e| Error::format(&name, format!("JPEG: {e}")))?;

@@ -11,6 +11,7 @@ use anyhow::Context;
 use clap::Args;
 use serde_json::json;
 
+use crate::cli::orbit::{SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, positive_f64, shown, usage};
 use crate::geom::texture_bake::{self, BakeParams, DEFAULT_SQUARE};
 use crate::io::any::{MeshWriteOptions, load_gaussians, load_mesh, save_mesh};
@@ -48,7 +49,8 @@ pub struct BakeTextureArgs {
           value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(4..=256))]
     pub square_size: usize,
     /// Largest texture side accepted, texels: a larger atlas is refused
-    /// before anything is allocated (baking takes about 19 bytes per texel).
+    /// before anything is allocated, as is one beyond the memory budget
+    /// (baking and writing take about 28 bytes per texel).
     #[arg(long, default_value_t = 16384, value_name = "N",
           value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     pub max_texture: usize,
@@ -78,6 +80,14 @@ pub fn run(args: BakeTextureArgs) -> anyhow::Result<()> {
             args.output.display()
         )));
     }
+    // The MTL and PNG written beside the OBJ are outputs too (checked
+    // before any work, like -o: writable, and none of them an input).
+    for ext in ["mtl", "png"] {
+        crate::cli::check_output_file(
+            &args.output.with_extension(ext),
+            &format!("-o {} (its {})", args.output.display(), ext.to_uppercase()),
+        )?;
+    }
     let t0 = std::time::Instant::now();
     let mesh = load_mesh(&args.mesh, "bake-texture")
         .with_context(|| format!("reading {}", shown(&args.mesh, false)))?;
@@ -89,13 +99,43 @@ pub fn run(args: BakeTextureArgs) -> anyhow::Result<()> {
     // Refused here, before the Gaussians are read or anything allocated.
     texture_bake::check_texture_size(mesh.faces.len(), &params)
         .with_context(|| format!("baking {}", shown(&args.mesh, false)))?;
+    // The atlas the mesh's face count and --square-size make, within the
+    // memory budget (the views are added once the cameras are read).
+    let side = texture_bake::Atlas::side_for(mesh.faces.len(), args.square_size);
+    let atlas_what = format!(
+        "{}: the {side}x{side} texture atlas of its {} faces at --square-size {}",
+        shown(&args.mesh, false),
+        mesh.faces.len(),
+        args.square_size
+    );
+    crate::io::budget::check(
+        &atlas_what,
+        texture_bake::bake_bytes(mesh.faces.len(), args.square_size, 0),
+    )?;
     let gaussians = load_gaussians(&args.gaussians, "bake-texture")
         .with_context(|| format!("reading {}", shown(&args.gaussians, false)))?;
+    // No colour to bake: the texture would be the background only.
+    if gaussians.is_empty() {
+        anyhow::bail!(
+            "{}: holds no Gaussians: there is no colour to bake into {}",
+            shown(&args.gaussians, false),
+            shown(&args.mesh, false)
+        );
+    }
     let cams = read_cameras(&args.cameras)
         .with_context(|| format!("reading cameras {}", args.cameras.display()))?;
     if cams.is_empty() {
         anyhow::bail!("{}: holds no cameras", args.cameras.display());
     }
+    let largest = image_bytes(&cams, 1, 0);
+    check_image_budget(
+        SizeFrom::File(&args.cameras),
+        &format!(
+            "the render buffers of a {} view with {atlas_what}",
+            largest_size(&cams)
+        ),
+        texture_bake::bake_bytes(mesh.faces.len(), args.square_size, largest),
+    )?;
     let pb = args.common.progress(cams.len() as u64, "bake-texture");
     let (textured, stats) =
         texture_bake::bake_texture(&mesh, &gaussians, &cams, &params, |_| pb.inc(1)).with_context(

@@ -15,7 +15,9 @@ use crate::geom::binding::rebind::{ScaleRule, rebind};
 use crate::geom::binding::{
     BindOptions, THICKNESS_FACTOR, bind, camera_extent, materialize, mean_of, mesh_radius,
 };
-use crate::io::any::{load, load_bound, load_gaussians, load_mesh, save_gaussians};
+use crate::io::any::{
+    check_finite_mesh, load, load_bound, load_gaussians_finite, load_mesh_finite, save_gaussians,
+};
 use crate::io::cameras::read_cameras;
 use crate::io::ply::bound::{attach, is_bound};
 use crate::io::views::{ViewOptions, load_views};
@@ -95,9 +97,14 @@ pub fn save_bound(path: &std::path::Path, b: &BoundGaussians) -> crate::Result<(
 /// `bind-gaussians` entry point.
 pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    crate::cli::check_output_file(&args.output, "-o")?;
-    args.common.check_stdout_free(&args.output)?;
-    crate::cli::check_binary_stdout(&args.output)?;
+    args.common.check_output(&args.output, true)?;
+    crate::cli::declare_inputs(&[
+        Some(args.input.as_path()),
+        args.cameras.as_deref(),
+        args.images.as_deref(),
+        args.rebind.as_deref(),
+        args.colors_from.as_deref(),
+    ])?;
     if crate::model::bound::barycentrics(args.per_triangle).is_none() {
         return Err(usage(format!(
             "--per-triangle {}: SuGaR defines Gaussians-per-triangle tables for 1, 3, 4 and 6 only",
@@ -108,7 +115,7 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
     let (b, report) = match &args.rebind {
         Some(edited) => {
             let (b, _) = load_bound(&args.input, "bind-gaussians --rebind")?;
-            let mesh = load_mesh(edited, "bind-gaussians --rebind")?;
+            let mesh = load_mesh_finite(edited, "bind-gaussians --rebind")?;
             let rule = match args.scale_rule {
                 ScaleRuleArg::MeanSide => ScaleRule::MeanSide,
                 ScaleRuleArg::Anisotropic => ScaleRule::Anisotropic,
@@ -145,6 +152,8 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
                     other.kind().phrase()
                 ),
             };
+            // before the thickness is derived from the mesh's extent
+            check_finite_mesh(&shown(&args.input, false), &mesh)?;
             let (thickness, thickness_from) = match (args.thickness, &args.cameras) {
                 (Some(t), _) => (t, "--thickness".to_string()),
                 (None, Some(c)) => {
@@ -187,7 +196,7 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
                 "grey (the mesh has no vertex colours)"
             };
             if let Some(src) = &args.colors_from {
-                let g = load_gaussians(src, "bind-gaussians --colors-from")?;
+                let g = load_gaussians_finite(src, "bind-gaussians --colors-from")?;
                 let at: Vec<[f64; 3]> = (0..b.len()).map(|i| mean_of(&b, i)).collect();
                 b.sh_dc = dc_from_gaussians(&at, &g)
                     .with_context(|| format!("colours from {}", shown(src, false)))?;

@@ -79,7 +79,11 @@ pub fn load_cloud(path: &Path, p: &GenericParams, side: &str, max_samples: u64) 
                 )?,
                 SampleMode::Vertices => {}
             }
-            mesh_cloud(&m, p)
+            // a sampling failure (a mesh of zero area) names the file and side
+            mesh_cloud(&m, p).map_err(|e| match e {
+                Error::Invalid(msg) => Error::format(format!("{side} {}", shown(path, false)), msg),
+                other => other.in_role(side),
+            })
         }
         _ => unreachable!("load_kinds returns an accepted kind"),
     }
@@ -116,8 +120,9 @@ pub struct ChamferArgs {
     /// How meshes become points (generic mode).
     #[arg(long, value_enum, default_value = "area")]
     pub sample: SampleMode,
-    /// Samples per mesh with --sample area.
-    #[arg(long, default_value_t = 1_000_000)]
+    /// Samples per mesh with --sample area (at least 1).
+    #[arg(long, default_value_t = 1_000_000,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     pub count: usize,
     /// Spacing of --sample dtu (same unit as the data), > 0.
     #[arg(long, default_value_t = 0.2, value_parser = positive_f64)]
@@ -132,7 +137,7 @@ pub struct ChamferArgs {
     #[arg(long)]
     pub vertices: bool,
     /// F-score thresholds, comma-separated (generic; TnT overrides the scene's τ).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = positive_f64)]
     pub tau: Vec<f64>,
     /// Discard distances ≥ this before statistics (generic), > 0.
     #[arg(long, value_parser = positive_f64)]

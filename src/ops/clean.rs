@@ -49,25 +49,67 @@ pub struct CleanArgs {
     #[arg(long, value_name = "N")]
     pub min_component_faces: Option<usize>,
     /// Drop connected components with less than this fraction of the total area.
-    #[arg(long, value_name = "FRAC")]
+    #[arg(long, value_name = "FRAC", value_parser = crate::cli::unit_f64)]
     pub min_component_area: Option<f64>,
+    /// Write the mesh even when no face is left (an empty mesh), instead of
+    /// failing with exit 1: for batch jobs where a part may clean away
+    /// entirely (all faces degenerate, or removed by the component filters).
+    #[arg(long)]
+    pub allow_empty: bool,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// Which step (and flag) removed the last faces of a mesh that `clean` left
+/// empty, for the error message.
+fn empty_cause(r: &crate::geom::cleanup::CleanReport, args: &CleanArgs) -> String {
+    if r.faces_before == 0 {
+        return "the input has no faces".into();
+    }
+    if r.degenerate_faces == r.faces_before {
+        return format!(
+            "all {} faces are degenerate: a repeated vertex, zero area or a non-finite \
+             coordinate (--no-degenerate keeps them)",
+            r.faces_before
+        );
+    }
+    if r.removed_component_faces > 0 {
+        let flags: Vec<String> = [
+            args.keep_largest.map(|n| format!("--keep-largest {n}")),
+            args.min_component_faces
+                .map(|n| format!("--min-component-faces {n}")),
+            args.min_component_area
+                .map(|f| format!("--min-component-area {f}")),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        return format!(
+            "{} of {} components removed by {}",
+            r.removed_components,
+            r.components,
+            flags.join(", ")
+        );
+    }
+    format!(
+        "{} degenerate, {} duplicate and {} non-manifold faces removed of {}",
+        r.degenerate_faces, r.duplicate_faces, r.nonmanifold_faces, r.faces_before
+    )
 }
 
 /// `clean` entry point.
 pub fn run(args: CleanArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    crate::cli::check_output_file(&args.output, "-o")?;
-    args.common.check_stdout_free(&args.output)?;
     let format = output_format(&args.output, None, FileFormat::Ply)?;
-    if matches!(format, FileFormat::Ply | FileFormat::Glb) {
-        crate::cli::check_binary_stdout(&args.output)?;
-    }
-    if let Some(f) = args.min_component_area
-        && !(0.0..=1.0).contains(&f)
-    {
-        anyhow::bail!("--min-component-area must be a fraction in [0, 1] (got {f})");
+    args.common.check_output(
+        &args.output,
+        matches!(format, FileFormat::Ply | FileFormat::Glb),
+    )?;
+    if args.keep_largest == Some(0) && !args.allow_empty {
+        anyhow::bail!(
+            "--keep-largest 0 keeps no component: the output would be an empty mesh; \
+             nothing written (--allow-empty writes it)"
+        );
     }
     let steps = CleanSteps {
         merge: !args.no_merge,
@@ -83,6 +125,14 @@ pub fn run(args: CleanArgs) -> anyhow::Result<()> {
     };
     let mut mesh = load_mesh(&args.input, "clean")?;
     let r = clean_mesh(&mut mesh, &steps);
+    if mesh.faces.is_empty() && !args.allow_empty {
+        anyhow::bail!(
+            "{}: no face is left after cleaning ({}); nothing written (--allow-empty writes the \
+             empty mesh)",
+            shown(&args.input, false),
+            empty_cause(&r, &args)
+        );
+    }
     save_mesh(&args.output, &mesh, format, &MeshWriteOptions::default())?;
     args.common.say(format!(
         "clean: {} faces / {} vertices -> {} / {} (merged {}, degenerate {}, duplicate {}, non-manifold {}, unreferenced {}, components removed {} of {})",

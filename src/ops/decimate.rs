@@ -31,8 +31,8 @@ pub struct DecimateArgs {
     /// Target number of vertices.
     #[arg(long, conflicts_with = "ratio")]
     pub vertices: Option<usize>,
-    /// Target fraction of the faces, in [0, 1].
-    #[arg(long)]
+    /// Target fraction of the faces, in (0, 1].
+    #[arg(long, value_parser = crate::cli::unit_f64)]
     pub ratio: Option<f64>,
     #[command(flatten)]
     pub common: Common,
@@ -41,21 +41,47 @@ pub struct DecimateArgs {
 /// `decimate` entry point.
 pub fn run(args: DecimateArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    crate::cli::check_output_file(&args.output, "-o")?;
-    args.common.check_stdout_free(&args.output)?;
     let format = output_format(&args.output, None, FileFormat::Ply)?;
-    if matches!(format, FileFormat::Ply | FileFormat::Glb) {
-        crate::cli::check_binary_stdout(&args.output)?;
-    }
+    args.common.check_output(
+        &args.output,
+        matches!(format, FileFormat::Ply | FileFormat::Glb),
+    )?;
     let target = match (args.faces, args.vertices, args.ratio) {
         (Some(f), _, _) => Target::Faces(f),
         (_, Some(v), _) => Target::Vertices(v),
         (_, _, Some(r)) => Target::Ratio(r),
         _ => anyhow::bail!("give --faces, --vertices or --ratio"),
     };
+    // A target of nothing (no face; fewer than 3 vertices hold none) has no
+    // decimated mesh to give (the simplifier would stop at whatever it cannot
+    // collapse): refused before reading.
+    let zero = match target {
+        Target::Faces(0) => Some("--faces 0".to_string()),
+        Target::Vertices(v) if v < 3 => Some(format!("--vertices {v}")),
+        Target::Ratio(0.0) => Some("--ratio 0".to_string()),
+        _ => None,
+    };
+    if let Some(flag) = zero {
+        anyhow::bail!(
+            "{flag} asks for an empty mesh, which decimation cannot make: nothing written \
+             (give a target of at least one face, or three vertices)"
+        );
+    }
     let mesh = load_mesh(&args.input, "decimate")?;
     let (out, report) = decimate(&mesh, target)
         .with_context(|| format!("decimating {}", shown(&args.input, false)))?;
+    if out.faces.is_empty() {
+        anyhow::bail!(
+            "decimating {} to {} left no face: nothing written (ask for more faces or \
+             vertices)",
+            shown(&args.input, false),
+            match target {
+                Target::Faces(f) => format!("--faces {f}"),
+                Target::Vertices(v) => format!("--vertices {v}"),
+                Target::Ratio(r) => format!("--ratio {r}"),
+            }
+        );
+    }
     save_mesh(&args.output, &out, format, &MeshWriteOptions::default())?;
     args.common.say(format!(
         "decimate: {} faces / {} vertices -> {} faces / {} vertices (relative error {:.2e})",

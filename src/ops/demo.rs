@@ -66,14 +66,17 @@ pub struct DemoArgs {
     /// Seed of the generated scenes and of the sampling.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Cameras around the Gaussian torus.
-    #[arg(long, default_value_t = 16)]
+    /// Cameras around the Gaussian torus (2 to 10000; 1 is taken as 2).
+    #[arg(long, default_value_t = 16,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=10_000))]
     pub views: usize,
-    /// Image size (square) of those cameras.
-    #[arg(long, default_value_t = 256)]
+    /// Image size (square) of those cameras, pixels (at least 1; refused
+    /// beyond the memory budget).
+    #[arg(long, default_value_t = 256,
+          value_parser = clap::builder::RangedU64ValueParser::<u32>::new().range(1..))]
     pub size: u32,
-    /// Poisson depth.
-    #[arg(long, default_value_t = 8)]
+    /// Poisson depth (2 to 16, as `poisson --depth`).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(2..=16))]
     pub depth: u32,
     /// Refinement iterations of the bound Gaussians (SuGaR's second half).
     #[arg(long, default_value_t = 300)]
@@ -83,8 +86,9 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 10_000)]
     pub bind_faces: usize,
     /// Torus segments around the ring of the triangle scene (triangles =
-    /// segments² roughly).
-    #[arg(long, default_value_t = 96)]
+    /// segments² roughly; at least 3; refused beyond the memory budget).
+    #[arg(long, default_value_t = 96,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(3..))]
     pub segments: usize,
     #[command(flatten)]
     pub common: Common,
@@ -368,9 +372,67 @@ fn bind_and_refine(
     }))
 }
 
+/// Bytes per pixel of every demo view held at once: the reference render
+/// kept as the refinement's photo (3 × f32 = 12).
+pub const DEMO_HELD_BYTES_PER_PIXEL: u64 = 12;
+/// Bytes per pixel of the one view a demo stage works on, the largest of
+/// its stages: a refinement step (render 64, L1 and SSIM gradients 384,
+/// image gradients 32, normal consistency 48 = 528; the level-set sampling
+/// takes 96 and the side-by-side picture 98).
+pub const DEMO_WORK_BYTES_PER_PIXEL: u64 = 528;
+/// Bytes per triangle of the demo's triangle scene: the soup (vertices 36,
+/// opacity 4, σ 4, SH 12 + 180 = 236) twice for the growth of its vectors,
+/// the pruned copy (236), the exported mesh (unwelded vertices 36 + face 12)
+/// and the encoded glTF buffer (48): 1,028, rounded up to 1,056.
+pub const DEMO_BYTES_PER_TRIANGLE: u64 = 1056;
+
+/// Bytes the demo's views take for `views` cameras of `size`×`size`:
+/// size² × (views × [`DEMO_HELD_BYTES_PER_PIXEL`] +
+/// [`DEMO_WORK_BYTES_PER_PIXEL`]); saturating.
+pub fn demo_image_bytes(views: usize, size: u32) -> u64 {
+    let px = u64::from(size) * u64::from(size);
+    let per = (views.max(2) as u64)
+        .saturating_mul(DEMO_HELD_BYTES_PER_PIXEL)
+        .saturating_add(DEMO_WORK_BYTES_PER_PIXEL);
+    px.saturating_mul(per)
+}
+
+/// The triangles [`demo_soup`] makes for `segments`: 2·nu·nv with nu =
+/// max(segments, 3), nv = max(segments / 2, 3) (the floaters, a fixed few
+/// hundred, are covered by the rounding of [`DEMO_BYTES_PER_TRIANGLE`]).
+pub fn demo_triangles(segments: usize) -> u64 {
+    let (nu, nv) = (segments.max(3) as u64, (segments / 2).max(3) as u64);
+    nu.saturating_mul(nv).saturating_mul(2)
+}
+
+/// Refuses `--views`, `--size` and `--segments` whose buffers exceed the
+/// memory budget (a usage error naming the flags, the estimate and the
+/// budget), before anything is made.
+fn check_budget(args: &DemoArgs) -> anyhow::Result<()> {
+    let as_usage = |e: crate::Error| crate::cli::usage(e.to_string());
+    crate::io::budget::check(
+        &format!(
+            "--views {} --size {}: the demo's images ({} views of {}x{} held, and the buffers of one)",
+            args.views, args.size, args.views.max(2), args.size, args.size
+        ),
+        demo_image_bytes(args.views, args.size),
+    )
+    .map_err(as_usage)?;
+    let t = demo_triangles(args.segments);
+    crate::io::budget::check(
+        &format!(
+            "--segments {}: the triangle scene ({t} triangles)",
+            args.segments
+        ),
+        t.saturating_mul(DEMO_BYTES_PER_TRIANGLE),
+    )
+    .map_err(as_usage)
+}
+
 /// Runs the demo.
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    check_budget(&args)?;
     // Everything is written into a staging folder that becomes the output
     // only when both parts (and their self-checks) succeeded.
     let staged = StagedDir::new(&args.output)
@@ -411,11 +473,18 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         write_gltf(w, &mesh, &GltfWriteOptions::default())
     })?;
     pb.inc(1);
-    staged.commit()?;
+    // Described from the staging folder: the files land when the run's
+    // outputs are committed, after this function returns.
     let infos: Vec<_> = ["scene.pt", "solid.off", "solid.glb"]
         .iter()
-        .map(|f| describe(&args.output.join(f)))
+        .map(|f| {
+            describe(&out(f)).map(|mut i| {
+                i.path = args.output.join(f).display().to_string();
+                i
+            })
+        })
         .collect::<crate::Result<_>>()?;
+    staged.commit()?;
     pb.finish_and_clear();
     if !args.common.quiet && !args.common.json_to_stdout() {
         eprintln!(
@@ -456,4 +525,26 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
 
 fn shown_dir(p: &Path) -> String {
     p.display().to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`demo_triangles`] counts the torus triangles [`demo_soup`] makes,
+    /// and the floaters fit in the rounding of the bytes per triangle.
+    #[test]
+    fn demo_triangle_estimate_covers_the_soup() {
+        for seg in [3usize, 7, 96, 200] {
+            let (soup, surface) = demo_soup(1, seg);
+            assert_eq!(demo_triangles(seg), surface as u64, "{seg}");
+            let bytes = soup.triangles.len() * 36 + soup.sh_rest.len() * 4 + soup.len() * 20;
+            assert!(
+                demo_triangles(seg) * DEMO_BYTES_PER_TRIANGLE >= 2 * bytes as u64,
+                "{seg}"
+            );
+        }
+        assert_eq!(demo_triangles(usize::MAX), u64::MAX);
+        assert_eq!(demo_image_bytes(16, 256), 65536 * (16 * 12 + 528));
+    }
 }

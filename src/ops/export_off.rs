@@ -47,6 +47,11 @@ pub struct ExportOffArgs {
     /// Eye position for view-dependent colour, "x,y,z" (default: the origin, as create_off.py).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_xyz)]
     pub view_from: Option<[f32; 3]>,
+    /// Write the output even when the input holds no triangle (an empty
+    /// file), instead of failing with exit 1: after `prune-triangles
+    /// --allow-empty` in batch jobs.
+    #[arg(long)]
+    pub allow_empty: bool,
     #[command(flatten)]
     pub common: Common,
 }
@@ -101,6 +106,14 @@ pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
         Scene::Mesh(m) => (m, false),
         _ => unreachable!("decode_kinds returns an accepted kind"),
     };
+    if mesh.faces.is_empty() && !args.allow_empty {
+        anyhow::bail!(
+            "{}: holds no triangles, so the {} output would be empty; nothing written (--allow-empty \
+             writes it)",
+            shown(&args.input, false),
+            format.name().to_uppercase()
+        );
+    }
     // OFF from a soup: create_off.py's layout (face colours, or vertex
     // colours in Python repr floats); from a mesh: COFF when it has colours.
     let off = if from_soup && !params.per_vertex_colors {

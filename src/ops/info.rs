@@ -39,6 +39,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
                 }
                 infos.push(i);
             }
+            // An output of the run over an input is a usage error: stop.
+            Err(e @ crate::Error::Usage(_)) => return Err(e.into()),
             Err(e) => {
                 eprintln!("error: {e}");
                 failed += 1;

@@ -32,11 +32,11 @@ pub struct PoissonArgs {
     /// Output mesh PLY (binary, per-vertex normals, colours, `density`); `-` = stdout.
     #[arg(short, long, default_value = "-")]
     pub output: PathBuf,
-    /// Finest octree depth (a cell is cube side / 2^depth) [default: 8; 10 with --sugar].
-    #[arg(long)]
+    /// Finest octree depth, 2 to 16 (a cell is cube side / 2^depth) [default: 8; 10 with --sugar].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=16))]
     pub depth: Option<u32>,
-    /// Depth up to which the octree is complete.
-    #[arg(long, default_value_t = 5)]
+    /// Depth up to which the octree is complete, 0 to 16 (capped at the depth).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=16))]
     pub full_depth: u32,
     /// Samples per node of the density estimate (larger = smoother in sparse areas).
     #[arg(long, default_value_t = 1.5, value_parser = positive_f64)]
@@ -89,7 +89,8 @@ pub struct PoissonArgs {
     #[arg(
         long,
         value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ",
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = parse_bbox
     )]
     pub bbox: Option<String>,
     /// Reconstruct the foreground only (needs --split-by-cameras or --bbox).
@@ -104,16 +105,26 @@ pub struct PoissonArgs {
     /// Statistical outlier removal: standard-deviation ratio.
     #[arg(long, value_name = "R", value_parser = positive_f64)]
     pub outlier_std: Option<f64>,
+    /// Write the mesh even when no face is left (trimming removed them all,
+    /// or every part was skipped), instead of failing with exit 1.
+    #[arg(long)]
+    pub allow_empty: bool,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// `--bbox`, checked at parse time (exit 2): six finite numbers, each min
+/// below its max; the text is kept and parsed again where it is used.
+fn parse_bbox(s: &str) -> Result<String, String> {
+    Aabb::parse(s)
+        .map(|_| s.to_string())
+        .map_err(|e| e.to_string())
 }
 
 /// `poisson` entry point.
 pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    crate::cli::check_output_file(&args.output, "-o")?;
-    args.common.check_stdout_free(&args.output)?;
-    crate::cli::check_binary_stdout(&args.output)?;
+    args.common.check_output(&args.output, true)?;
     if args.foreground_only && args.split_by_cameras.is_none() && args.bbox.is_none() {
         anyhow::bail!("--foreground-only needs --split-by-cameras or --bbox");
     }
@@ -175,8 +186,27 @@ pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
         pb.set_message(format!("{part}: {stage}"));
         pb.inc(1);
     })
-    .with_context(|| format!("reconstructing {}", shown(&args.input, false)))?;
+    .with_context(|| match args.width {
+        // the depth the error may name is the one --width implies
+        Some(w) => format!(
+            "reconstructing {} with --width {w:?}",
+            shown(&args.input, false)
+        ),
+        None => format!("reconstructing {}", shown(&args.input, false)),
+    })?;
     pb.finish_and_clear();
+    if out.mesh.faces.is_empty() && !args.allow_empty {
+        let cause = match (opt.trim_threshold, opt.trim_quantile) {
+            (Some(t), _) => format!("--trim {t:?} removed every face"),
+            (None, Some(q)) => format!("--trim-quantile {q:?} removed every face"),
+            _ if !out.skipped.is_empty() => "every part was skipped".to_string(),
+            _ => "the reconstruction made no surface: check --scale and the normals".to_string(),
+        };
+        anyhow::bail!(
+            "{}: no face is left ({cause}); nothing written (--allow-empty writes the empty mesh)",
+            shown(&args.input, false)
+        );
+    }
     // Always PLY: the per-vertex density travels only there.
     save_mesh(
         &args.output,

@@ -27,14 +27,19 @@ pub struct PruneTrianglesArgs {
     #[arg(long, value_parser = ["ply", "pt"])]
     pub format: Option<String>,
     /// Remove triangles with activated opacity ≤ T (0–1).
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", value_parser = unit_f32)]
     pub min_opacity: Option<f32>,
     /// Remove triangles with activated sigma ≥ S (σ = 0.01 + exp(raw)).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", value_parser = positive_f32)]
     pub max_sigma: Option<f32>,
     /// Keep at most N triangles, the most opaque.
     #[arg(long, value_name = "N")]
     pub max_count: Option<usize>,
+    /// Write the output even when no triangle is kept (an empty soup),
+    /// instead of failing with exit 1: for batch jobs where a scene may
+    /// hold nothing above the thresholds (`export-off --allow-empty` takes it).
+    #[arg(long)]
+    pub allow_empty: bool,
     /// Make survivors hard and opaque (opacity 1, sigma 0), as for game engines.
     #[arg(long)]
     pub solidify: bool,
@@ -44,6 +49,21 @@ pub struct PruneTrianglesArgs {
     pub game_engine: bool,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// A value in [0, 1] as f32 (clap value parser: a bad value is exit 2).
+fn unit_f32(s: &str) -> Result<f32, String> {
+    crate::cli::unit_f64(s).map(|v| v as f32)
+}
+
+/// A finite value > 0 that stays > 0 as f32 (clap value parser).
+fn positive_f32(s: &str) -> Result<f32, String> {
+    let v = crate::cli::positive_f64(s)? as f32;
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{s} is out of the range of a 32-bit float"))
+    }
 }
 
 impl PruneTrianglesArgs {
@@ -74,6 +94,40 @@ impl PruneTrianglesArgs {
     }
 }
 
+/// Why `prune` kept nothing, naming the flags that removed triangles
+/// (`game_engine`: whether `--game-engine` supplied the default thresholds).
+fn empty_cause(r: &crate::geom::prune::PruneReport, p: &PruneParams, game_engine: bool) -> String {
+    if r.total == 0 {
+        return "the input holds no triangles".into();
+    }
+    let mut parts = Vec::new();
+    if r.removed_invalid + r.removed_degenerate > 0 {
+        parts.push(format!(
+            "{} invalid or degenerate",
+            r.removed_invalid + r.removed_degenerate
+        ));
+    }
+    if let Some(t) = p.min_opacity.filter(|_| r.removed_opacity > 0) {
+        parts.push(format!("{} by --min-opacity {t}", r.removed_opacity));
+    }
+    if let Some(s) = p.max_sigma.filter(|_| r.removed_sigma > 0) {
+        parts.push(format!("{} by --max-sigma {s}", r.removed_sigma));
+    }
+    if let Some(n) = p.max_count.filter(|_| r.removed_count > 0) {
+        parts.push(format!("{} by --max-count {n}", r.removed_count));
+    }
+    format!(
+        "all {} removed: {}{}",
+        r.total,
+        parts.join(", "),
+        if game_engine {
+            " (thresholds from --game-engine unless given)"
+        } else {
+            ""
+        }
+    )
+}
+
 /// Runs the command.
 pub fn run(args: PruneTrianglesArgs) -> anyhow::Result<()> {
     args.common.init()?;
@@ -95,8 +149,21 @@ pub fn run(args: PruneTrianglesArgs) -> anyhow::Result<()> {
         anyhow::bail!("prune-triangles writes .ply or .pt, not .{}", format.name());
     }
     crate::cli::check_binary_stdout(&args.output)?;
+    if params.max_count == Some(0) && !args.allow_empty {
+        anyhow::bail!(
+            "--max-count 0 keeps no triangle: the output would be an empty soup; nothing \
+             written (--allow-empty writes it)"
+        );
+    }
     let soup = load_soup(&args.input, "prune-triangles")?;
     let (out, report) = prune(&soup, &params);
+    if out.is_empty() && !args.allow_empty {
+        anyhow::bail!(
+            "{}: no triangle is kept ({}); nothing written (--allow-empty writes the empty soup)",
+            shown(&args.input, false),
+            empty_cause(&report, &params, args.game_engine)
+        );
+    }
     save_soup(&args.output, &out, format)
         .with_context(|| format!("writing {}", shown(&args.output, true)))?;
     args.common.say(format!(

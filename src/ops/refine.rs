@@ -23,8 +23,9 @@ use crate::cli::{Common, shown, usage};
 use crate::geom::binding::camera_extent;
 use crate::geom::binding::rebind::{ScaleRule, rebind};
 use crate::io::StagedDir;
-use crate::io::any::{load_bound, load_mesh, save_gaussians, save_mesh};
+use crate::io::any::{load_bound, load_mesh_finite, save_gaussians, save_mesh};
 use crate::io::cameras::read_cameras;
+use crate::io::dataset::check_views_budget;
 use crate::io::detect::FileFormat;
 use crate::io::ply::bound::attach;
 use crate::io::views::{ViewOptions, load_views};
@@ -79,14 +80,14 @@ pub struct RefineArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64), conflicts_with = "resolution")]
     pub downscale: u32,
     /// Train at this image width (must divide the cameras' width).
-    #[arg(long, value_name = "WIDTH")]
+    #[arg(long, value_name = "WIDTH", value_parser = clap::value_parser!(u32).range(1..))]
     pub resolution: Option<u32>,
     /// White background instead of black.
     #[arg(long)]
     pub white_background: bool,
     /// Hold out every N-th view (name order, from the first) for evaluation;
-    /// 0 = none.
-    #[arg(long, default_value_t = 8)]
+    /// 0 = none (1 would hold out all).
+    #[arg(long, default_value_t = 8, value_parser = holdout_every)]
     pub test_every: usize,
     /// Evaluate the held-out views every N iterations (0: start and end only).
     #[arg(long, default_value_t = 500)]
@@ -105,7 +106,8 @@ pub struct RefineArgs {
 }
 
 fn read_json(path: &Path) -> anyhow::Result<Value> {
-    let b = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let b = crate::io::source::read_file(path)
+        .with_context(|| format!("reading {}", path.display()))?;
     serde_json::from_slice(&b).with_context(|| format!("{}: not valid JSON", path.display()))
 }
 
@@ -114,6 +116,50 @@ fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         w.write_all(bytes).map_err(crate::io::source::werr)
     })
     .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Bytes per pixel of one refinement step's buffers for the view it trains
+/// on (beyond the photos, which [`crate::io::dataset::VIEW_BYTES_PER_PIXEL`]
+/// counts): the render (52 of output + 12 working), the L1 and SSIM
+/// gradients (SSIM in f64 per channel, the three in parallel, 15 maps × 8 =
+/// 120 per channel, 360, plus 12 + 12 of f32 results), the backward pass's
+/// image gradients (colour 12, alpha 4, depth 4, normal 12) and the normal
+/// consistency's depth-normal map (48).
+pub const REFINE_BYTES_PER_PIXEL: u64 = 64 + 384 + 32 + 48;
+
+/// A hold-out period N (clap value parser): every N-th view is held out, 0
+/// holds out none; 1 would hold out every view and leave nothing, so it is
+/// refused at parse (exit 2).
+fn holdout_every(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a whole number"))?;
+    if n == 1 {
+        Err("1 would hold out every view: give 0 (none) or 2 or more".into())
+    } else {
+        Ok(n)
+    }
+}
+
+/// Refuses a view whose mask has no object pixel: its loss and its
+/// PSNR / SSIM would be taken over 0 pixels (`null` and 1.0), so the run
+/// and its metrics would mean nothing. Names the mask folder and the view.
+fn check_masks_cover(views: &[crate::model::View], masks: &std::path::Path) -> anyhow::Result<()> {
+    for v in views {
+        if let Some(m) = &v.mask
+            && !m.iter().any(|&b| b)
+        {
+            bail!(
+                "--masks {}: the mask of view {:?} ({}) has no object pixel (all zero): its loss \
+                 and metrics would cover 0 pixels",
+                masks.display(),
+                v.camera.name,
+                v.source
+            );
+        }
+    }
+    Ok(())
 }
 
 /// `refine` entry point.
@@ -133,9 +179,11 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     let (mut model, resume_state) = match &args.resume {
         Some(dir) => {
             let ck = dir.join("checkpoint");
+            // The run advances this checkpoint (often in the same output folder).
+            crate::io::transaction::note_replaceable(&ck);
             let (b, _) = load_bound(&ck.join("model.ply"), "refine --resume")?;
             let state = read_json(&ck.join("state.json"))?;
-            let opt = std::fs::read(ck.join("optimizer.bin"))
+            let opt = crate::io::source::read_file(&ck.join("optimizer.bin"))
                 .with_context(|| format!("reading {}", ck.join("optimizer.bin").display()))?;
             let (step, groups) = decode(&ck.join("optimizer.bin").display().to_string(), &opt)?;
             (b, Some((state, step, groups)))
@@ -143,7 +191,7 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         None => (load_bound(&args.bound, "refine")?.0, None),
     };
     if let (Some(m), None) = (&args.mesh, &args.resume) {
-        let mesh = load_mesh(m, "refine")?;
+        let mesh = load_mesh_finite(m, "refine")?;
         model = rebind(&model, &mesh, ScaleRule::MeanSide)
             .map_err(|e| anyhow::anyhow!("{}: {e}", shown(m, false)))?;
     }
@@ -165,6 +213,26 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         }
         None => args.downscale,
     };
+    // a view of 0 pixels has no loss and no metric: refused before any
+    // photo is read, naming the flag that sized it
+    if let Some(c) = cams
+        .iter()
+        .find(|c| c.width / downscale == 0 || c.height / downscale == 0)
+    {
+        return Err(usage(format!(
+            "{}: camera {:?} ({}x{}) has no pixels left at {} (downscale {downscale})",
+            shown(&args.cameras, false),
+            c.name,
+            c.width,
+            c.height,
+            match args.resolution {
+                Some(w) => format!("--resolution {w}"),
+                None => format!("--downscale {}", args.downscale),
+            }
+        )));
+    }
+    // every photo is held in memory: refused before any is decoded
+    check_views_budget(&args.cameras, &cams, downscale, REFINE_BYTES_PER_PIXEL)?;
     let views = load_views(
         &cams,
         &args.images,
@@ -174,6 +242,9 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
             background: None,
         },
     )?;
+    if let Some(masks) = &args.masks {
+        check_masks_cover(&views, masks)?;
+    }
     let (train, test) = split(views.len(), args.test_every);
     if train.is_empty() {
         bail!(
@@ -236,7 +307,11 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     let t_loop = std::time::Instant::now();
     let mut last_loss = 0.0;
     while r.iteration() < iterations {
-        let st = r.step(&views, &train);
+        // the loss every iteration, every parameter before each evaluation
+        // and at the end (train::finite)
+        let st = r
+            .step_checked(&views, &train)
+            .map_err(|m| anyhow::anyhow!("refine: {m}"))?;
         last_loss = st.loss;
         pb.inc(1);
         if r.iteration().is_multiple_of(10) {
@@ -252,9 +327,13 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
             && at.is_multiple_of(args.eval_every)
             && at < iterations
         {
+            r.check_finite()
+                .map_err(|m| anyhow::anyhow!("refine: {m}"))?;
             evals.push(r.evaluate(&views, &test));
         }
     }
+    r.check_finite()
+        .map_err(|m| anyhow::anyhow!("refine: {m}"))?;
     if !test.is_empty() && evals.last().map(|e| e.iteration) != Some(r.iteration()) {
         evals.push(r.evaluate(&views, &test));
     }

@@ -20,7 +20,7 @@ use splatkit_render::gaussian::{self, RasterSettings, RenderOutput};
 use splatkit_render::loss::{psnr, ssim};
 use splatkit_render::{mesh as zbuffer, triangle};
 
-use crate::cli::orbit::OrbitArgs;
+use crate::cli::orbit::{OrbitArgs, SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, nonneg_f64, positive_f64, shown, usage};
 use crate::geom::orbit::orbit_rings;
 use crate::io::StagedDir;
@@ -137,6 +137,30 @@ impl Raster {
             Raster::Mesh(m) => m.vertices.clone(),
         }
     }
+}
+
+/// Bytes per pixel `render` holds for the one view it works on: the
+/// rasteriser's output and working buffers (splats: 52 of
+/// [`RenderOutput`] + 12 of transmittance, last index and weight sum; a
+/// mesh: the z-buffer's 28 + 52 of shaded output = 80, the larger), plus
+/// the images encoded for writing (8-bit RGB 3, alpha 1, normal 3, the
+/// surface depth 4, its `.npy` bytes 4 and 16-bit PNG 2 = 17), plus 7 for
+/// the encoders' row buffers.
+pub const RENDER_BYTES_PER_PIXEL: u64 = 80 + 17 + 7;
+
+/// Extra bytes per pixel with `--compare`: the clamped render and the
+/// ground truth (12 + 12) and SSIM's f64 maps (per channel, the three in
+/// parallel: the two images, five blurred moments, a product and a blur
+/// temporary, 9 × 8 = 72; × 3 = 216).
+pub const COMPARE_BYTES_PER_PIXEL: u64 = 24 + 216;
+
+/// Bytes `render` needs for its image buffers, given the pixels of its
+/// largest view: those × ([`RENDER_BYTES_PER_PIXEL`] +
+/// [`COMPARE_BYTES_PER_PIXEL`] with `--compare`); views are rendered one at
+/// a time, so nothing is held per view. Saturating.
+pub fn render_bytes(largest_pixels: u64, compare: bool) -> u64 {
+    let per = RENDER_BYTES_PER_PIXEL + if compare { COMPARE_BYTES_PER_PIXEL } else { 0 };
+    largest_pixels.saturating_mul(per)
 }
 
 /// The scene file, through the common loader, ready to rasterise.
@@ -372,9 +396,28 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Some(_) => None,
         None => Some(args.orbit.spec(args.orbit.orbit.unwrap_or(8))?),
     };
+    // The orbit's image buffers are a flag's: refused before the scene is read.
+    if let Some(spec) = &orbit {
+        check_image_budget(
+            SizeFrom::Flag(&format!("--size {}", args.orbit.size)),
+            "the render buffers of one view",
+            render_bytes(
+                u64::from(spec.width) * u64::from(spec.height),
+                args.compare.is_some(),
+            ),
+        )?;
+    }
     let t0 = std::time::Instant::now();
     let scene = load_scene(&args.scene)
         .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
+    // Images of nothing but the background are not a render of the scene.
+    if scene.len() == 0 {
+        bail!(
+            "{}: holds no {} (0 primitives): nothing to render",
+            shown(&args.scene, false),
+            scene.kind()
+        );
+    }
     if let Raster::Mesh(m) = &scene
         && m.uvs.is_some()
         && m.texture.is_none()
@@ -395,6 +438,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for c in &cams {
         c.require_pinhole()
             .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
+    }
+    if let Some(p) = &args.cameras {
+        check_image_budget(
+            SizeFrom::File(p),
+            &format!("the render buffers of a {} view", largest_size(&cams)),
+            render_bytes(image_bytes(&cams, 1, 0), args.compare.is_some()),
+        )?;
     }
     // Every ground-truth image is found before anything is rendered or
     // written, so a missing one cannot leave the output folder half-replaced.

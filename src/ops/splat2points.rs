@@ -8,8 +8,8 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
-use crate::cli::orbit::OrbitArgs;
-use crate::cli::{Common, check_binary_stdout, fraction_f32, nonneg_f64, shown, usage};
+use crate::cli::orbit::{OrbitArgs, SizeFrom, check_image_budget, image_bytes, largest_size};
+use crate::cli::{Common, fraction_f32, nonneg_f64, shown, usage};
 use crate::geom::levelset::{DepthSource, LevelsetOptions, sample_levelset, to_point_cloud};
 use crate::geom::orbit::orbit_rings;
 use crate::geom::splat_points::{centers, depth_points};
@@ -98,8 +98,8 @@ pub struct Splat2PointsArgs {
     #[arg(long, default_value_t = 0.5, value_parser = fraction_f32)]
     pub min_opacity: f32,
     /// Hold out every N-th camera (name-sorted, from the first) as 3DGS's
-    /// test split does; 0 keeps all.
-    #[arg(long, default_value_t = 8)]
+    /// test split does; 0 keeps all (1 would hold out all).
+    #[arg(long, default_value_t = 8, value_parser = holdout_every)]
     pub every_nth_test: usize,
     /// Use every camera (same as --every-nth-test 0).
     #[arg(long)]
@@ -122,6 +122,21 @@ pub struct Splat2PointsArgs {
     pub orbit: OrbitArgs,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// A hold-out period N (clap value parser): every N-th view is held out, 0
+/// holds out none; 1 would hold out every view and leave nothing, so it is
+/// refused at parse (exit 2).
+fn holdout_every(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a whole number"))?;
+    if n == 1 {
+        Err("1 would hold out every view: give 0 (none) or 2 or more".into())
+    } else {
+        Ok(n)
+    }
 }
 
 /// A density level λ: a number strictly between 0 and 1 (the density is
@@ -217,12 +232,25 @@ pub fn seen_by_any(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64)
         .count()
 }
 
+/// Bytes per pixel `splat2points` holds for the one view it samples, over
+/// its methods (the largest): a Gaussian render (52 of output + 12 of
+/// working buffers = 64) for `--depth gaussian|median` and `--method
+/// depth`, the per-pixel depth and hit (`Option<(f32, u32)>`, 12), the
+/// depth map taken from the render (4), the covered-pixel list (4) and the
+/// diamond z-buffer's own depth and hit per pixel (12).
+pub const SPLAT2POINTS_BYTES_PER_PIXEL: u64 = 64 + 12 + 4 + 4 + 12;
+
+/// Bytes of `splat2points`'s image buffers for `cams`: the largest view's
+/// pixels × [`SPLAT2POINTS_BYTES_PER_PIXEL`] (views are sampled one at a
+/// time; the points kept are bounded by `--max-points`, not by the images).
+pub fn splat2points_image_bytes(cams: &[Camera]) -> u64 {
+    image_bytes(cams, SPLAT2POINTS_BYTES_PER_PIXEL, 0)
+}
+
 /// `splat2points` entry point.
 pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    crate::cli::check_output_file(&args.output, "-o")?;
-    args.common.check_stdout_free(&args.output)?;
-    check_binary_stdout(&args.output)?;
+    args.common.check_output(&args.output, true)?;
     let t0 = std::time::Instant::now();
     let (scene, default_cams) = if args.scene.is_dir() {
         let (p, c) = resolve_model_folder(&args.scene, args.iteration)?;
@@ -241,6 +269,15 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
         (None, Some(n)) => Some(args.orbit.spec(n)?),
         _ => None,
     };
+    // The orbit's image buffers are a flag's: refused before the scene is read.
+    if let Some(spec) = &orbit {
+        check_image_budget(
+            SizeFrom::Flag(&format!("--size {}", args.orbit.size)),
+            "the depth and sampling buffers of one view",
+            (u64::from(spec.width) * u64::from(spec.height))
+                .saturating_mul(SPLAT2POINTS_BYTES_PER_PIXEL),
+        )?;
+    }
     let g = load_gaussians(&scene, "splat2points")
         .with_context(|| format!("reading {}", shown(&scene, false)))?
         .to_raster();
@@ -278,6 +315,16 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
         c.require_pinhole()
             .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
     }
+    if let Some(p) = &cam_path {
+        check_image_budget(
+            SizeFrom::File(p),
+            &format!(
+                "the depth and sampling buffers of a {} view",
+                largest_size(&cams)
+            ),
+            splat2points_image_bytes(&cams),
+        )?;
+    }
     // nothing to sample from: say why before any work
     let opaque = g
         .opacities
@@ -286,7 +333,8 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
         .count();
     if opaque == 0 {
         bail!(
-            "none of the {} Gaussians has opacity above --min-opacity {}",
+            "{}: none of its {} Gaussians has opacity above --min-opacity {}: no points to make",
+            shown(&scene, false),
             g.len(),
             args.min_opacity
         );
@@ -294,8 +342,9 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     if seen_by_any(&g, &cams, args.min_opacity, args.near) == 0 {
         bail!(
             "none of the {} cameras ({cam_source}) sees any of the {opaque} opaque Gaussians \
-             (check that the cameras belong to this scene: axes, units, world up)",
-            cams.len()
+             of {} (check that the cameras belong to this scene: axes, units, world up)",
+            cams.len(),
+            shown(&scene, false)
         );
     }
     let pb = args.common.progress(cams.len() as u64, "views");
@@ -321,8 +370,20 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     let n = points.positions.len();
     if n == 0 {
         bail!(
-            "no points: no ray crossed the level(s) {:?} (try a lower --level or --depth median)",
-            args.level
+            "{}: no points: {} (cameras {cam_source}); nothing written",
+            shown(&scene, false),
+            match args.method {
+                Method::Levelset => format!(
+                    "no ray crossed the level(s) --level {} (try a lower --level or --depth median)",
+                    args.level
+                        .iter()
+                        .map(|l| l.to_string())
+                        .collect::<Vec<_>>()
+                        .join(",")
+                ),
+                Method::Centers => "no opaque Gaussian centre is seen by a camera".to_string(),
+                Method::Depth => "no view has a pixel with depth".to_string(),
+            }
         );
     }
     let pc = to_point_cloud(points, args.provenance);

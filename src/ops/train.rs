@@ -32,9 +32,11 @@ use anyhow::{Context, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value, json};
 
-use crate::cli::{Common, shown};
+use crate::cli::{Common, shown, usage};
 use crate::io::StagedDir;
-use crate::io::any::{load_gaussians, load_soup, save_gaussians, save_points, save_soup};
+use crate::io::any::{
+    load_gaussians_finite, load_soup_finite, save_gaussians, save_points, save_soup,
+};
 use crate::io::cameras::gs_json::write_gs_json;
 use crate::io::dataset::{Dataset, DatasetOptions, MaskMode, load_dataset};
 use crate::io::detect::FileFormat;
@@ -100,7 +102,7 @@ pub struct DataArgs {
     pub downscale: u32,
     /// Train at about this image width (the integer downscale that brings
     /// the widest camera to at most this).
-    #[arg(long, value_name = "WIDTH")]
+    #[arg(long, value_name = "WIDTH", value_parser = clap::value_parser!(u32).range(1..))]
     pub resolution: Option<u32>,
     /// Require masks (the data's mask folder); default: use them when present.
     #[arg(long, conflicts_with = "no_masks")]
@@ -116,14 +118,16 @@ pub struct DataArgs {
     /// fixed background).
     #[arg(long)]
     pub random_background: bool,
-    /// Hold out every N-th view (camera order, from the first); 0 = none.
-    #[arg(long, default_value_t = 8)]
+    /// Hold out every N-th view (camera order, from the first); 0 = none
+    /// (1 would hold out all).
+    #[arg(long, default_value_t = 8, value_parser = holdout_every)]
     pub test_every: usize,
     /// Evaluate the held-out views every N iterations (0: start and end).
     #[arg(long, default_value_t = 1000)]
     pub eval_every: u64,
-    /// Random initial points when the data has none.
-    #[arg(long, default_value_t = 100_000)]
+    /// Random initial points when the data has none (1 to 2^40; `1e6`
+    /// notation accepted); refused beyond the memory budget.
+    #[arg(long, default_value_t = 100_000, value_parser = count_arg)]
     pub init_points: usize,
     /// Continue the run saved in this folder (its checkpoint/).
     #[arg(long, value_name = "DIR")]
@@ -137,6 +141,21 @@ pub struct DataArgs {
     pub seed: u64,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// A hold-out period N (clap value parser): every N-th view is held out, 0
+/// holds out none; 1 would hold out every view and leave nothing, so it is
+/// refused at parse (exit 2).
+fn holdout_every(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a whole number"))?;
+    if n == 1 {
+        Err("1 would hold out every view: give 0 (none) or 2 or more".into())
+    } else {
+        Ok(n)
+    }
 }
 
 /// `train triangles`.
@@ -154,8 +173,10 @@ pub struct TriangleArgs {
     /// → 1 with rising pruning thresholds.
     #[arg(long)]
     pub game_engine: bool,
-    /// Most triangles the model may hold.
-    #[arg(long, default_value_t = 4_000_000)]
+    /// Most triangles the model may hold (at least 1; the initial triangles,
+    /// one per initial point, must fit).
+    #[arg(long, default_value_t = 4_000_000,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     pub max_shapes: usize,
     /// Add the dome of extra seeds (outdoor scenes).
     #[arg(long)]
@@ -178,13 +199,67 @@ pub struct GaussianArgs {
     /// SuGaR's coarse stage with this surface regulariser.
     #[arg(long, value_enum)]
     pub regularize: Option<RegularizeArg>,
-    /// Regulariser samples per iteration (SuGaR: 1,000,000).
-    #[arg(long, default_value_t = 50_000)]
+    /// Regulariser samples per iteration (SuGaR: 1,000,000; 1 to 2^40,
+    /// `1e6` notation accepted); refused beyond the memory budget.
+    #[arg(long, default_value_t = 50_000, value_parser = count_arg)]
     pub samples: usize,
 }
 
+/// The largest count `--init-points` and `--samples` accept (2^40): far
+/// beyond any memory, so a larger value is a typo.
+pub const MAX_COUNT: u64 = 1 << 40;
+
+/// Bytes of training state per primitive made from an initial point: the
+/// parameters of a Gaussian or triangle with SH degree 3 (59 f32), their
+/// gradients and two Adam moments (× 4 = 944), the per-view projection and
+/// densification statistics (80), and the initial point itself (position,
+/// normal, colour: 32 with padding).
+pub const BYTES_PER_INIT_POINT: u64 = 944 + 80 + 32;
+
+/// Bytes per regulariser sample of one iteration: the sample (point 12,
+/// owner 4, ε 12) and the density terms over SuGaR's 16 neighbours (f64
+/// value and f32 weight each, 16 × 12 = 192), plus 64 for the gradient
+/// scatter.
+pub const BYTES_PER_SAMPLE: u64 = 28 + 192 + 64;
+
+/// Bytes per pixel of one training step's buffers for the view it trains
+/// on (beyond the photos, which [`crate::io::dataset::VIEW_BYTES_PER_PIXEL`]
+/// counts): the render (52 of output + 12 working), the L1 and SSIM
+/// gradients (SSIM in f64 per channel, the three in parallel: two images,
+/// five blurred moments, three partials and their blurs, a gradient and a
+/// temporary, 15 × 8 = 120 per channel, 360, plus 12 + 12 of f32 results),
+/// the backward pass's image gradients (colour 12, alpha 4, depth 4, normal
+/// 12) and the regularisers' depth and normal maps (48).
+pub const TRAIN_BYTES_PER_PIXEL: u64 = 64 + 384 + 32 + 48;
+
+/// Parses a count flag: a whole number from 1 to [`MAX_COUNT`], written
+/// plainly or in `1e6` notation (clap value parser: exit 2 otherwise).
+fn count_arg(s: &str) -> Result<usize, String> {
+    let t = s.trim();
+    let v = match t.parse::<u64>() {
+        Ok(v) => v,
+        Err(_) => {
+            let f: f64 = t
+                .parse()
+                .map_err(|_| format!("{s:?} is not a whole number"))?;
+            if !(f.is_finite() && f.fract() == 0.0 && f >= 0.0) {
+                return Err(format!("{s} is not a whole number"));
+            }
+            if f > MAX_COUNT as f64 {
+                return Err(format!("{s} is more than the limit of {MAX_COUNT} (2^40)"));
+            }
+            f as u64
+        }
+    };
+    if v == 0 || v > MAX_COUNT {
+        return Err(format!("{s} is not in 1..={MAX_COUNT}"));
+    }
+    usize::try_from(v).map_err(|_| format!("{s} is too large for this machine"))
+}
+
 fn read_json(path: &Path) -> anyhow::Result<Value> {
-    let b = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let b = crate::io::source::read_file(path)
+        .with_context(|| format!("reading {}", path.display()))?;
     serde_json::from_slice(&b).with_context(|| format!("{}: not valid JSON", path.display()))
 }
 
@@ -220,6 +295,15 @@ struct Prepared {
 }
 
 fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
+    // a flag's size: refused before the data is read
+    crate::io::budget::check(
+        &format!(
+            "--init-points {}: the initial primitives and their training state",
+            a.init_points
+        ),
+        (a.init_points as u64).saturating_mul(BYTES_PER_INIT_POINT),
+    )
+    .map_err(|e| usage(e.to_string()))?;
     let opts = DatasetOptions {
         downscale: a.downscale,
         resolution: a.resolution,
@@ -235,8 +319,14 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
         } else {
             [0.0; 3]
         },
+        work_bytes_per_pixel: TRAIN_BYTES_PER_PIXEL,
     };
-    let data = load_dataset(&a.data, &opts)?;
+    let data = load_dataset(&a.data, &opts).with_context(|| match a.resolution {
+        // the downscale the message may name is the one --resolution implies
+        Some(w) => format!("{} at --resolution {w}", a.data.display()),
+        None => format!("{} at --downscale {}", a.data.display(), a.downscale),
+    })?;
+    check_masks_cover(&data)?;
     let (train, test) = split(data.views.len(), a.test_every);
     if train.is_empty() {
         bail!(
@@ -270,6 +360,47 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
         random_init,
         extent,
     })
+}
+
+/// Refuses a view whose mask has no object pixel: its loss and its
+/// held-out PSNR / SSIM would be taken over 0 pixels (`null` and 1.0), so
+/// the run and its metrics would mean nothing. Names the view and its photo.
+fn check_masks_cover(data: &Dataset) -> anyhow::Result<()> {
+    for v in &data.views {
+        if let Some(m) = &v.mask
+            && !m.iter().any(|&b| b)
+        {
+            bail!(
+                "{}: the mask of view {:?} ({}) has no object pixel (all zero): its loss and \
+                 metrics would cover 0 pixels (--no-masks ignores the masks)",
+                data.root.display(),
+                v.camera.name,
+                v.source
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The file the initial points came from, for messages: the data's
+/// `input.ply` / `points3D.*`, or `--init-points` random points.
+fn points_source(p: &Prepared, a: &DataArgs) -> String {
+    if p.random_init {
+        return format!("the {} random --init-points", a.init_points);
+    }
+    let dir = if p.data.cameras_file.is_dir() {
+        p.data.cameras_file.clone()
+    } else {
+        p.data.root.clone()
+    };
+    ["input.ply", "points3D.bin", "points3D.txt", "points3D.ply"]
+        .iter()
+        .map(|n| dir.join(n))
+        .find(|f| f.is_file())
+        .map_or_else(
+            || format!("the initial points of {}", p.data.root.display()),
+            |f| f.display().to_string(),
+        )
 }
 
 /// 3DGS's `getNerfppNorm` radius: 1.1 × the largest distance of a camera
@@ -350,6 +481,8 @@ fn read_checkpoint(
     Vec<crate::train::checkpoint::GroupState>,
 )> {
     let ck = dir.join("checkpoint");
+    // The run advances this checkpoint (often in the same output folder).
+    crate::io::transaction::note_replaceable(&ck);
     let state = read_json(&ck.join("state.json"))?;
     let got = state.get("model").and_then(Value::as_str).unwrap_or("");
     if got != kind {
@@ -360,8 +493,8 @@ fn read_checkpoint(
         );
     }
     let opt_path = ck.join("optimizer.bin");
-    let opt =
-        std::fs::read(&opt_path).with_context(|| format!("reading {}", opt_path.display()))?;
+    let opt = crate::io::source::read_file(&opt_path)
+        .with_context(|| format!("reading {}", opt_path.display()))?;
     let (step, groups) = decode(&opt_path.display().to_string(), &opt)?;
     Ok((ck.join("model.ply"), state, step, groups))
 }
@@ -381,7 +514,7 @@ fn train_loop(
     iterations: u64,
     mut evals: Vec<Eval>,
     label: &'static str,
-) -> LoopResult {
+) -> anyhow::Result<LoopResult> {
     let views = &p.data.views;
     if !p.test.is_empty() && evals.is_empty() {
         evals.push(t.eval(views, &p.test));
@@ -392,7 +525,11 @@ fn train_loop(
     let t_loop = std::time::Instant::now();
     let mut last_loss = 0.0;
     while t.iterations_done() < end {
-        let st = t.step_once(views, &p.train);
+        // the loss every iteration, every parameter before each evaluation
+        // and at the end (train::finite)
+        let st = t
+            .step_checked(views, &p.train)
+            .map_err(|m| anyhow::anyhow!("{label}: {m}"))?;
         last_loss = st.loss;
         pb.inc(1);
         let at = t.iterations_done();
@@ -408,9 +545,13 @@ fn train_loop(
             && at.is_multiple_of(a.eval_every)
             && at < iterations
         {
+            t.check_finite()
+                .map_err(|m| anyhow::anyhow!("{label}: {m}"))?;
             evals.push(t.eval(views, &p.test));
         }
     }
+    t.check_finite()
+        .map_err(|m| anyhow::anyhow!("{label}: {m}"))?;
     let finished = t.iterations_done() == iterations;
     if !p.test.is_empty()
         && evals.last().map(|e| e.iteration) != Some(t.iterations_done())
@@ -419,12 +560,12 @@ fn train_loop(
         evals.push(t.eval(views, &p.test));
     }
     pb.finish_and_clear();
-    LoopResult {
+    Ok(LoopResult {
         evals,
         start,
         loop_s: t_loop.elapsed().as_secs_f64(),
         last_loss,
-    }
+    })
 }
 
 /// cfg_args as 3DGS writes it (a Python Namespace repr).
@@ -587,7 +728,7 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
         Some(dir) => {
             let (model, state, step, groups) = read_checkpoint(dir, "triangles")?;
             let evals = check_resume(&state, &settings, dir)?;
-            let soup = load_soup(&model, "train triangles --resume")?;
+            let soup = load_soup_finite(&model, "train triangles --resume")?;
             let mut t = TriangleTrainer::new(soup, params);
             t.restore(step, groups)
                 .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
@@ -598,7 +739,21 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
                 dome: args.dome,
                 ..Default::default()
             };
-            let soup = init_triangles(&p.points, &init, &mut seeded(a.seed))?;
+            let soup = init_triangles(&p.points, &init, &mut seeded(a.seed))
+                .with_context(|| format!("initialising from {}", points_source(&p, a)))?;
+            if soup.len() > args.max_shapes {
+                return Err(crate::cli::usage(format!(
+                    "--max-shapes {} is below the {} initial triangles (one per point of {}{})",
+                    args.max_shapes,
+                    soup.len(),
+                    points_source(&p, a),
+                    if args.dome {
+                        " and the --dome seeds"
+                    } else {
+                        ""
+                    }
+                )));
+            }
             (TriangleTrainer::new(soup, params), Vec::new())
         }
     };
@@ -608,7 +763,7 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
             t.iteration()
         );
     }
-    let r = train_loop(&mut t, &p, a, iterations, evals, "train triangles");
+    let r = train_loop(&mut t, &p, a, iterations, evals, "train triangles")?;
     let dir = stage.path().to_path_buf();
     let model = t.model();
     let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
@@ -648,6 +803,17 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
     let iterations = a
         .iterations
         .unwrap_or(if regularize.is_some() { 15_000 } else { 30_000 });
+    if regularize.is_some() {
+        // a flag's size: refused before the data is read
+        crate::io::budget::check(
+            &format!(
+                "--samples {}: the regulariser samples of one iteration",
+                args.samples
+            ),
+            (args.samples as u64).saturating_mul(BYTES_PER_SAMPLE),
+        )
+        .map_err(|e| usage(e.to_string()))?;
+    }
     let stage = StagedDir::new(&a.output)?;
     let p = prepare(a)?;
     let mut params = GaussianParams::new(iterations, regularize, p.extent);
@@ -663,14 +829,18 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
         Some(dir) => {
             let (model, state, step, groups) = read_checkpoint(dir, "gaussians")?;
             let evals = check_resume(&state, &settings, dir)?;
-            let g = load_gaussians(&model, "train gaussians --resume")?;
+            let g = load_gaussians_finite(&model, "train gaussians --resume")?;
             let mut t = GaussianTrainer::new(g, params);
             t.restore(step, groups)
                 .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
             (t, evals)
         }
         None => (
-            GaussianTrainer::new(init_gaussians(&p.points, 3)?, params),
+            GaussianTrainer::new(
+                init_gaussians(&p.points, 3)
+                    .with_context(|| format!("initialising from {}", points_source(&p, a)))?,
+                params,
+            ),
             Vec::new(),
         ),
     };
@@ -680,7 +850,7 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
             t.iteration()
         );
     }
-    let r = train_loop(&mut t, &p, a, iterations, evals, "train gaussians");
+    let r = train_loop(&mut t, &p, a, iterations, evals, "train gaussians")?;
     let dir = stage.path().to_path_buf();
     let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
     mkdir(&it_dir)?;
@@ -705,6 +875,27 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Count flags take plain or `1e6` whole numbers from 1 to 2^40.
+    #[test]
+    fn count_flags_parse() {
+        assert_eq!(count_arg("1e12"), Ok(1_000_000_000_000));
+        assert_eq!(count_arg(" 500 "), Ok(500));
+        assert_eq!(count_arg("1099511627776"), Ok(1 << 40));
+        for bad in [
+            "0",
+            "2e12",
+            "1099511627777",
+            "1.5",
+            "-3",
+            "NaN",
+            "inf",
+            "x",
+            "",
+        ] {
+            assert!(count_arg(bad).is_err(), "{bad}");
+        }
+    }
     use crate::testing::cameras_around;
 
     /// Cameras around a point look at it: the box is centred there with

@@ -14,11 +14,12 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde_json::json;
 
+use crate::cli::orbit::{SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, positive_f64, shown, unit_f64, usage};
 use crate::geom::tsdf::{
-    BATCH, Frame, FusionScene, TsdfParams, TsdfVolume, UnboundedParams, UnboundedView, auto_params,
-    bound_from_points, camera_sphere, extract_mesh, fuse_unbounded, keep_largest_clusters,
-    render_view,
+    BATCH, BlockBounds, Frame, FusionScene, TsdfParams, TsdfVolume, UnboundedParams, UnboundedView,
+    auto_params, bound_from_points, camera_sphere, extract_mesh, fuse_unbounded,
+    keep_largest_clusters, render_view,
 };
 use crate::io::any::{MeshWriteOptions, load_kinds, output_format, save_mesh};
 use crate::io::cameras::read_cameras;
@@ -120,8 +121,14 @@ struct ViewFiles {
 }
 
 /// The fusion distances: flags, then the DTU preset, then 2DGS's defaults
-/// from the cameras.
-fn resolve_params(args: &TsdfFuseArgs, cams: &[Camera]) -> anyhow::Result<(TsdfParams, String)> {
+/// from the cameras; `max_blocks` from the memory budget less
+/// `image_bytes`, and the block bounds of the cameras. A usage error when
+/// the blocks one depth sample touches cannot fit the budget.
+fn resolve_params(
+    args: &TsdfFuseArgs,
+    cams: &[Camera],
+    image_bytes: u64,
+) -> anyhow::Result<(TsdfParams, String, BlockBounds)> {
     let (mut voxel, mut sdf, mut depth) = (args.voxel, args.sdf_trunc, args.depth_trunc);
     let mut how = "flags".to_string();
     if args.dtu {
@@ -141,19 +148,74 @@ fn resolve_params(args: &TsdfFuseArgs, cams: &[Camera]) -> anyhow::Result<(TsdfP
     let voxel = voxel.unwrap_or(depth_trunc / args.mesh_res as f64);
     let sdf_trunc = sdf.unwrap_or(5.0 * voxel);
     let mut p = TsdfParams::new(voxel, sdf_trunc, depth_trunc);
-    // Half the memory this process may use, in blocks.
-    let budget = crate::cli::memory_budget().unwrap_or(8 << 30) / 2;
-    p.max_blocks = (budget as usize / TsdfVolume::block_bytes(true)).max(1);
     p.validate()?;
-    Ok((p, how))
+    // The blocks that fit the memory budget beside the image buffers.
+    let per_block = TsdfVolume::block_bytes(true) as u64 + BLOCK_EXTRA_BYTES;
+    let room = crate::io::budget::usable_bytes().saturating_sub(image_bytes);
+    p.max_blocks = usize::try_from(room / per_block)
+        .unwrap_or(usize::MAX)
+        .max(1);
+    // One usable depth sample alone allocates `per_sample_min` blocks: when
+    // those cannot fit, the flags are refused before anything is rendered.
+    let bounds = p.block_bounds(cams);
+    crate::io::budget::check(
+        &format!(
+            "--voxel {voxel} --sdf-trunc {sdf_trunc} (from {how}): the {} TSDF blocks of 16³ voxels \
+             that one depth sample touches (2·sdf-trunc spans {:.0} blocks of 16 voxels per axis)",
+            bounds.per_sample_min,
+            2.0 * sdf_trunc / p.unit_length()
+        ),
+        bounds
+            .per_sample_min
+            .saturating_mul(per_block)
+            .saturating_add(image_bytes),
+    )
+    .map_err(|e| usage(e.to_string()))?;
+    Ok((p, how, bounds))
+}
+
+/// Bytes per TSDF block beyond its voxel arrays: its key, index entry,
+/// `Block` header and per-batch frame list (about 150), and its share of
+/// the extracted mesh (a surface crossing a block gives about 2·16²
+/// triangles with their vertices, colours and welding entries): 16 KiB.
+pub const BLOCK_EXTRA_BYTES: u64 = 16 << 10;
+
+/// Bytes per pixel of the one view rendered at a time (the splat render's
+/// 52 of output + 12 of working buffers, or a mesh z-buffer's 28 + 52), and
+/// its mask read as f32 (4).
+pub const RENDER_BYTES_PER_PIXEL: u64 = 80 + 4;
+
+/// Bytes per pixel of each view held by the bounded fusion, [`BATCH`] at a
+/// time: the depth map (4), colours (3), and the prepared pixel (depth,
+/// ray multiplier, colour: 12).
+pub const BATCH_VIEW_BYTES_PER_PIXEL: u64 = 4 + 3 + 12;
+
+/// Bytes of `tsdf-fuse`'s image buffers for `cams`: the largest view's
+/// pixels × ([`RENDER_BYTES_PER_PIXEL`] + [`BATCH`] ×
+/// [`BATCH_VIEW_BYTES_PER_PIXEL`]) for the bounded fusion; with
+/// `unbounded`, every view's pixels × the unbounded fusion's
+/// `VIEW_BYTES_PER_PIXEL` (all maps are held) + the largest's ×
+/// [`RENDER_BYTES_PER_PIXEL`].
+pub fn fuse_image_bytes(cams: &[Camera], unbounded: bool) -> u64 {
+    if unbounded {
+        image_bytes(
+            cams,
+            RENDER_BYTES_PER_PIXEL,
+            crate::geom::tsdf::unbounded::VIEW_BYTES_PER_PIXEL,
+        )
+    } else {
+        image_bytes(
+            cams,
+            RENDER_BYTES_PER_PIXEL + BATCH as u64 * BATCH_VIEW_BYTES_PER_PIXEL,
+            0,
+        )
+    }
 }
 
 /// `tsdf-fuse` entry point.
 pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
     args.common.init()?;
-    crate::cli::check_output_file(&args.output, "-o")?;
-    args.common.check_stdout_free(&args.output)?;
-    crate::cli::check_binary_stdout(&args.output)?;
+    args.common.check_output(&args.output, true)?;
     let format = output_format(&args.output, None, FileFormat::Ply)?;
     match (&args.scene, &args.depth) {
         (Some(_), Some(_)) => return Err(usage("give a scene or --depth DIR, not both")),
@@ -223,10 +285,33 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
             })
         })
         .collect::<anyhow::Result<_>>()?;
-    let (params, how) = if args.unbounded {
-        (TsdfParams::new(1.0, 1.0, 1.0), "unbounded".to_string())
+    // The image buffers the cameras' sizes make (a file's: exit 1), then
+    // the grid the flags make (exit 2), before anything is rendered or read.
+    let image_bytes = fuse_image_bytes(&cams, args.unbounded);
+    check_image_budget(
+        SizeFrom::File(&args.cameras),
+        &format!(
+            "the depth maps of {} views (largest {})",
+            cams.len(),
+            largest_size(&cams)
+        ),
+        image_bytes,
+    )?;
+    let (params, how, bounds) = if args.unbounded {
+        crate::io::budget::check(
+            &format!(
+                "--unbounded --mesh-res {}: the contracted grid ({} samples per axis) beside the depth maps",
+                args.mesh_res,
+                crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res)
+            ),
+            crate::geom::tsdf::unbounded::grid_bytes(args.mesh_res).saturating_add(image_bytes),
+        )
+        .map_err(|e| usage(e.to_string()))?;
+        let p = TsdfParams::new(1.0, 1.0, 1.0);
+        let b = p.block_bounds(&[]);
+        (p, "unbounded".to_string(), b)
     } else {
-        resolve_params(&args, &cams)?
+        resolve_params(&args, &cams, image_bytes)?
     };
     // the DTU recipe's ratio, 1, is also the default
     let depth_ratio = args.depth_ratio as f32;
@@ -234,6 +319,17 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
         Some(p) => Some(load_scene(p)?),
         None => None,
     };
+    // no primitive: every depth map would be empty, so nothing can be fused
+    if let (Some(p), Some(sc)) = (&args.scene, &scene) {
+        let n = match sc {
+            FusionScene::Gaussians(g) => g.len(),
+            FusionScene::Triangles(t) => t.len(),
+            FusionScene::Mesh(m) => m.faces.len(),
+        };
+        if n == 0 {
+            bail!("{}: holds no primitives: nothing to fuse", shown(p, false));
+        }
+    }
     let with_color = !args.no_color
         && match &scene {
             Some(s) => s.has_color(),
@@ -321,7 +417,15 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
             let t = std::time::Instant::now();
             let stats = vol.integrate_batch(&frames).with_context(|| {
                 let names: Vec<&str> = chunk.iter().map(|(c, _)| c.name.as_str()).collect();
-                format!("fusing cameras {names:?}")
+                format!(
+                    "fusing cameras {names:?} (--voxel {}, --sdf-trunc {}, --depth-trunc {}: at \
+                     most {} blocks fit this process's memory budget of {})",
+                    params.voxel,
+                    params.sdf_trunc,
+                    params.depth_trunc,
+                    params.max_blocks,
+                    crate::io::budget::human_bytes(crate::io::budget::usable_bytes())
+                )
             })?;
             fuse_time += t.elapsed().as_secs_f64();
             for ((cam, _), st) in chunk.iter().zip(stats) {
@@ -340,6 +444,7 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
             "depth_trunc": params.depth_trunc,
             "params_from": how,
             "blocks": vol.len(),
+            "blocks_bound": bounds.upper,
             "volume_bytes": vol.memory_bytes(),
         });
         let t = std::time::Instant::now();
@@ -351,6 +456,15 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
     let k = args.keep_clusters.or(args.dtu.then_some(1));
     let clusters = k.map(|k| keep_largest_clusters(&mut mesh, k, args.min_cluster_faces));
     if mesh.faces.is_empty() {
+        if raw.1 > 0 {
+            // the fusion made a surface; the cluster filter removed it all
+            bail!(
+                "the fused mesh is empty after the cluster filter: all {} faces are in \
+                 clusters of fewer than --min-cluster-faces {} faces; nothing written",
+                raw.1,
+                args.min_cluster_faces
+            );
+        }
         if args.unbounded {
             bail!(
                 "the fused mesh is empty: the contracted grid has no zero crossing in {} views; \
@@ -581,10 +695,23 @@ fn load_scene(path: &Path) -> anyhow::Result<FusionScene> {
         SceneKind::TriangleSoup,
         SceneKind::Mesh,
     ];
+    // fusion makes geometry: a NaN or infinite value would silently drop
+    // the primitives it touches from the mesh, so it is refused (unlike
+    // `render`, which draws what is finite)
+    let name = shown(path, false);
     Ok(match load_kinds(path, "tsdf-fuse", &accepts)? {
-        model::Scene::Gaussians(g) => FusionScene::gaussians(&g.to_raster()),
-        model::Scene::TriangleSoup(t) => FusionScene::triangles(&t.to_raster()),
-        model::Scene::Mesh(m) => FusionScene::Mesh(m),
+        model::Scene::Gaussians(g) => {
+            crate::io::ply::gaussians::check_finite(&name, &g)?;
+            FusionScene::gaussians(&g.to_raster())
+        }
+        model::Scene::TriangleSoup(t) => {
+            crate::io::any::check_finite_soup(&name, &t)?;
+            FusionScene::triangles(&t.to_raster())
+        }
+        model::Scene::Mesh(m) => {
+            crate::io::any::check_finite_mesh(&name, &m)?;
+            FusionScene::Mesh(m)
+        }
         model::Scene::PointCloud(_) => unreachable!("load_kinds returns an accepted kind"),
     })
 }

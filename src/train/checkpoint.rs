@@ -69,7 +69,9 @@ pub fn encode(step: u64, groups: &[GroupState]) -> Vec<u8> {
 }
 
 /// Decodes [`encode`]'s bytes; `name` is the file for errors. Lengths are
-/// checked against the bytes left before anything is allocated.
+/// checked against the bytes left before anything is allocated; a moment
+/// that is NaN or infinite, or a negative second moment, is refused with its
+/// byte offset, group and element.
 pub fn decode(name: &str, b: &[u8]) -> Result<(u64, Vec<GroupState>)> {
     let bad = |at: usize, what: &str| Error::format(name, format!("byte {at}: {what}"));
     if b.len() < 20 || &b[..8] != MAGIC {
@@ -108,11 +110,33 @@ pub fn decode(name: &str, b: &[u8]) -> Result<(u64, Vec<GroupState>)> {
                 .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
                 .collect()
         };
-        groups.push(GroupState {
-            name: gname,
-            m: read(o),
-            v: read(o + 4 * n),
-        });
+        let (m, v) = (read(o), read(o + 4 * n));
+        // a NaN or infinite moment turns its parameter into NaN at the first
+        // step, and so does a negative second moment (Adam takes √v)
+        for (what, vals, at) in [
+            ("m (first moment)", &m, o),
+            ("v (second moment)", &v, o + 4 * n),
+        ] {
+            if let Some(i) = vals.iter().position(|x| !x.is_finite()) {
+                return Err(bad(
+                    at + 4 * i,
+                    &format!(
+                        "group {gname}: element {i} of {what} is {}, not a finite number",
+                        vals[i]
+                    ),
+                ));
+            }
+        }
+        if let Some(i) = v.iter().position(|&x| x < 0.0) {
+            return Err(bad(
+                o + 4 * n + 4 * i,
+                &format!(
+                    "group {gname}: element {i} of v (second moment) is {}, below 0",
+                    v[i]
+                ),
+            ));
+        }
+        groups.push(GroupState { name: gname, m, v });
         o += 8 * n;
     }
     if o != b.len() {
@@ -145,6 +169,44 @@ mod tests {
         assert_eq!(decode("x", &b).unwrap(), (42, g));
         for cut in 0..b.len() {
             assert!(decode("x", &b[..cut]).is_err());
+        }
+    }
+
+    /// A NaN or infinite moment, or a negative second moment, is refused
+    /// with the byte, the group and the element (it would make its
+    /// parameter NaN at the first step).
+    #[test]
+    fn non_finite_moments_are_refused() {
+        let g = vec![GroupState {
+            name: "sh_dc".into(),
+            m: vec![0.1, 0.2, 0.3],
+            v: vec![0.01, 0.02, 0.03],
+        }];
+        // group header: 20 + 4 + 5 + 8 bytes, then m (3 × 4), then v
+        let m0 = 20 + 4 + 5 + 8;
+        let cases = [
+            (
+                m0 + 4,
+                f32::NAN,
+                "byte 41: group sh_dc: element 1 of m (first moment) is NaN",
+            ),
+            (
+                m0 + 12 + 8,
+                f32::INFINITY,
+                "byte 57: group sh_dc: element 2 of v (second moment) is inf",
+            ),
+            (
+                m0 + 12,
+                -1.0,
+                "byte 49: group sh_dc: element 0 of v (second moment) is -1, below 0",
+            ),
+        ];
+        for (at, x, want) in cases {
+            let mut b = encode(3, &g);
+            b[at..at + 4].copy_from_slice(&x.to_le_bytes());
+            let e = decode("ck/optimizer.bin", &b).unwrap_err().to_string();
+            assert!(e.starts_with("ck/optimizer.bin"), "{e}");
+            assert!(e.contains(want), "{e}");
         }
     }
 }

@@ -8,9 +8,12 @@
 //! - [`sugar`]: SuGaR's coarse-stage regularisers (opacity entropy,
 //!   density and SDF regularisers on sampled points) with raw gradients;
 //! - [`checkpoint`]: optimiser state on disk, so `--resume` continues bit
-//!   for bit.
+//!   for bit;
+//! - [`finite`]: the loops' guards against a loss or parameter that becomes
+//!   NaN or infinite (what is checked when).
 
 pub mod checkpoint;
+pub mod finite;
 pub mod gaussians;
 pub mod groups;
 pub mod photometric;

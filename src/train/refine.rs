@@ -191,6 +191,9 @@ impl Refiner {
     }
 
     /// One optimisation step on `views[view_at(train, seed, iteration)]`.
+    /// A step whose loss is not finite changes nothing (no update, the
+    /// iteration count stays) and returns that loss; see
+    /// [`crate::train::finite`].
     pub fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let vi = view_at(train, self.params.seed, self.iteration);
         let view = &views[vi];
@@ -209,6 +212,21 @@ impl Refiner {
         } else {
             0.0
         };
+        let loss = photo + w * nc;
+        if !loss.is_finite() {
+            // no update and no iteration counted: the model stays as it
+            // was, so the caller can name the value that made the loss
+            // non-finite (train::finite) instead of the NaN Adam would
+            // spread from it to every parameter
+            return StepStats {
+                iteration: self.iteration,
+                view: vi,
+                loss,
+                photometric: photo,
+                normal_consistency: nc,
+                psnr,
+            };
+        }
         let gv: Vec<f32> = bg.vertices.iter().flatten().map(|&x| x as f32).collect();
         let m = &mut self.model;
         self.adams[0].step(flat(&mut m.mesh.vertices), &gv);
@@ -220,13 +238,51 @@ impl Refiner {
         let stats = StepStats {
             iteration: self.iteration,
             view: vi,
-            loss: photo + w * nc,
+            loss,
             photometric: photo,
             normal_consistency: nc,
             psnr,
         };
         self.iteration += 1;
         stats
+    }
+
+    /// [`Refiner::step`], then the per-iteration guard of
+    /// [`super::finite`]: `Err` naming the iteration (and the first
+    /// non-finite parameter, if any) when the loss is not finite.
+    pub fn step_checked(&mut self, views: &[View], train: &[usize]) -> Result<StepStats, String> {
+        let st = self.step(views, train);
+        super::finite::check_loss(st.iteration + 1, st.loss, || self.non_finite())?;
+        Ok(st)
+    }
+
+    /// The parameter guard (before evaluations and at the end of a run):
+    /// `Err` naming the iteration and the first non-finite parameter.
+    pub fn check_finite(&self) -> Result<(), String> {
+        super::finite::check_params(self.iteration, self.non_finite())
+    }
+
+    /// The first NaN or infinite parameter (mesh vertices, complex
+    /// rotations, in-plane scales, opacity, SH), described; `None` when all
+    /// are finite.
+    pub fn non_finite(&self) -> Option<String> {
+        use super::finite::{Param, first_non_finite};
+        let m = &self.model;
+        let k3 = m.rest_per_channel() * 3;
+        let p = |name, unit, width, values| Param {
+            name,
+            unit,
+            width,
+            values,
+        };
+        first_non_finite(&[
+            p(GROUPS[0], "vertex", 3, m.mesh.vertices.as_flattened()),
+            p(GROUPS[1], "Gaussian", 2, m.complex.as_flattened()),
+            p(GROUPS[2], "Gaussian", 2, m.log_scales.as_flattened()),
+            p(GROUPS[3], "Gaussian", 1, &m.opacity_logits),
+            p(GROUPS[4], "Gaussian", 3, m.sh_dc.as_flattened()),
+            p(GROUPS[5], "Gaussian", k3, &m.sh_rest),
+        ])
     }
 
     /// PSNR / SSIM on the views `test` (mean over views) at the current

@@ -4,6 +4,7 @@
 //! a new model (or a GPU backend of one) plugs in by implementing it.
 
 use super::checkpoint::GroupState;
+use super::finite;
 use super::photometric::Eval;
 use crate::model::View;
 
@@ -19,6 +20,9 @@ pub struct Progress {
 /// A model trainer (see the module docs).
 pub trait Trainer {
     /// One optimisation step on the next view of `train`.
+    /// A step whose loss is not finite changes nothing (no update, the
+    /// iteration count stays) and returns that loss; see
+    /// [`crate::train::finite`].
     fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress;
     /// Held-out PSNR / SSIM.
     fn eval(&self, views: &[View], test: &[usize]) -> Eval;
@@ -30,6 +34,25 @@ pub trait Trainer {
     fn state(&self) -> (u64, Vec<GroupState>);
     /// Restores [`Trainer::state`] for the model already loaded.
     fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String>;
+    /// The first NaN or infinite parameter, described (one pass over the
+    /// model, see [`super::finite`]); `None` when all are finite.
+    fn first_non_finite(&self) -> Option<String>;
+
+    /// [`Trainer::step_once`], then the per-iteration guard: `Err` naming
+    /// the iteration (and the first non-finite parameter, if any) when the
+    /// loss is not finite.
+    fn step_checked(&mut self, views: &[View], train: &[usize]) -> Result<Progress, String> {
+        let before = self.iterations_done();
+        let p = self.step_once(views, train);
+        finite::check_loss(before + 1, p.loss, || self.first_non_finite())?;
+        Ok(p)
+    }
+
+    /// The parameter guard (before evaluations and at the end of a run):
+    /// `Err` naming the iteration and the first non-finite parameter.
+    fn check_finite(&self) -> Result<(), String> {
+        finite::check_params(self.iterations_done(), self.first_non_finite())
+    }
 }
 
 /// The two trainers expose the same inherent methods; `$count` names the
@@ -59,6 +82,9 @@ macro_rules! impl_trainer {
             }
             fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
                 self.restore(step, groups)
+            }
+            fn first_non_finite(&self) -> Option<String> {
+                self.non_finite()
             }
         }
     };

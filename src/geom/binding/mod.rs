@@ -124,6 +124,25 @@ pub fn quat_from_columns<T: Real>(c: [[T; 3]; 3]) -> [T; 4] {
     if q[0].val() < 0.0 { q.map(|v| -v) } else { q }
 }
 
+/// Refuses mesh vertices with a NaN or infinite coordinate, naming the
+/// first (0-based vertex, coordinate and value): a Gaussian bound to such a
+/// face would get a NaN mean and rotation, and an optimiser would spread the
+/// NaN to everything it touches. Binding and rebinding call it; a mesh
+/// coming from a file is also refused by its loader
+/// (`io::any::load_mesh_finite`), which names the file.
+pub fn check_finite_vertices(vertices: &[[f32; 3]]) -> Result<(), String> {
+    for (i, v) in vertices.iter().enumerate() {
+        if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+            return Err(format!(
+                "vertex {i} has a non-finite coordinate ({} = {})",
+                ["x", "y", "z"][k],
+                v[k]
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The three vertices of face `f` in f64.
 pub fn face_vertices(mesh: &Mesh, f: usize) -> [[f64; 3]; 3] {
     mesh.faces[f].map(|v| mesh.vertices[v as usize].map(f64::from))
@@ -160,7 +179,9 @@ pub struct BindOptions {
 /// `circle_radius(n) × the face's shortest edge` (at least 1e-7), opacity 0.1,
 /// SH DC from `colors` (one linear RGB in [0, 1] per Gaussian, face-major) or,
 /// when `None`, from the barycentric interpolation of the mesh's vertex
-/// colours (grey without them); higher SH 0.
+/// colours (grey without them); higher SH 0. Errors on a bad table choice,
+/// an invalid mesh, a vertex that is not finite, a thickness that is not a
+/// positive number, no faces, or a colour count that does not match.
 pub fn bind(
     mesh: &Mesh,
     opts: &BindOptions,
@@ -172,6 +193,7 @@ pub fn bind(
     })?;
     let radius = circle_radius(n).expect("same choices as the table");
     mesh.validate()?;
+    check_finite_vertices(&mesh.vertices)?;
     if !(opts.thickness > 0.0 && opts.thickness.is_finite()) {
         return Err(format!(
             "thickness {} is not a positive number",

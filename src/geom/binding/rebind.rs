@@ -49,13 +49,14 @@ fn mean_side(v: &[[f64; 3]; 3]) -> f64 {
 
 /// `b` bound to `edited` instead of its own mesh. The result carries
 /// `edited` as its mesh (so rebinding can be chained). Errors when the
-/// topology differs.
+/// topology differs or an edited vertex is not finite.
 pub fn rebind(
     b: &BoundGaussians,
     edited: &Mesh,
     rule: ScaleRule,
 ) -> Result<BoundGaussians, String> {
     edited.validate()?;
+    super::check_finite_vertices(&edited.vertices)?;
     let (fr, fe) = (b.mesh.faces.len(), edited.faces.len());
     if fr != fe {
         return Err(format!(

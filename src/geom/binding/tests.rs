@@ -298,6 +298,23 @@ fn rebinding_needs_the_same_faces() {
     assert!(e.contains("face 3"), "{e}");
 }
 
+/// A NaN or infinite vertex is refused by binding and by rebinding (it
+/// would give its faces' Gaussians NaN means and rotations), naming the
+/// vertex and the coordinate.
+#[test]
+fn non_finite_vertices_are_refused() {
+    let m = octa();
+    let b = bind(&m, &opts(3), None).unwrap();
+    for (x, shown) in [(f32::NAN, "NaN"), (f32::NEG_INFINITY, "-inf")] {
+        let mut bad = m.clone();
+        bad.vertices[4][1] = x;
+        let want = format!("vertex 4 has a non-finite coordinate (y = {shown})");
+        assert_eq!(bind(&bad, &opts(3), None).unwrap_err(), want);
+        for rule in [ScaleRule::MeanSide, ScaleRule::Anisotropic] {
+            assert_eq!(rebind(&b, &bad, rule).unwrap_err(), want);
+        }
+    }
+}
 /// Degenerate faces render axis-aligned instead of producing NaNs.
 #[test]
 fn degenerate_faces_get_the_identity() {

@@ -232,9 +232,16 @@ pub fn reconstruct_with_progress(
         None => prm.depth,
     };
     if !(2..=16).contains(&depth) {
-        return Err(Error::invalid(format!(
-            "depth must be in 2..=16 (got {depth})"
-        )));
+        return Err(Error::invalid(match prm.width {
+            Some(w) => format!(
+                "a cell width of {w:?} needs octree depth {depth} for a cube side of {:.6} \
+                 (depth = ⌈log2(side / width)⌉), and the depth must be in 2..=16: use a width \
+                 of at least {:.3e}",
+                norm.side,
+                norm.side / 65536.0
+            ),
+            None => format!("depth must be in 2..=16 (got {depth})"),
+        }));
     }
     let unit: Vec<[f64; 3]> = pos.par_iter().map(|p| norm.to_unit(*p)).collect();
     drop(pos);

@@ -23,4 +23,4 @@ pub use extract::extract_mesh;
 pub use post::{ClusterReport, keep_largest_clusters};
 pub use unbounded::{UnboundedParams, UnboundedView, bound_from_points, fuse_unbounded};
 pub use views::{FusionScene, FusionView, render_view};
-pub use volume::{BATCH, Frame, IntegrateStats, TsdfParams, TsdfVolume};
+pub use volume::{BATCH, BlockBounds, Frame, IntegrateStats, TsdfParams, TsdfVolume};

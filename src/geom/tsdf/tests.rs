@@ -578,3 +578,87 @@ fn batches_fuse_exactly_like_single_frames() {
     assert!(v.integrate_batch(&bad).is_err());
     assert_eq!(v.len(), 0);
 }
+
+/// The block bounds hold on real frames: one usable pixel creates between
+/// `per_sample_min` and `per_sample_max` blocks; random depths from three
+/// tilted cameras (up to depth_trunc) create at most `upper` blocks; a
+/// truncation billions of blocks wide saturates, and integration refuses
+/// it at the limit instead of walking it.
+#[test]
+fn block_bounds_hold() {
+    use crate::model::rng::seeded;
+    use rand::RngExt;
+    for (voxel, trunc) in [(0.01, 0.03), (0.02, 0.5), (0.05, 0.01)] {
+        let mut p = TsdfParams::new(voxel, trunc, 3.0);
+        p.stride = 1;
+        let cam = axis_camera(16, 12, 14.0, DVec3::new(0.1, -0.2, -1.0));
+        // one usable pixel
+        let mut one = vec![0.0f32; 16 * 12];
+        one[5 * 16 + 7] = 1.37;
+        let mut v = TsdfVolume::new(p, false).unwrap();
+        v.integrate(&Frame {
+            camera: &cam,
+            depth: &one,
+            color: None,
+        })
+        .unwrap();
+        let b = p.block_bounds(std::slice::from_ref(&cam));
+        let n = v.len() as u64;
+        assert!(
+            b.per_sample_min <= n && n <= b.per_sample_max,
+            "{voxel} {trunc}: {n} vs {b:?}"
+        );
+        // random depths from three tilted cameras, many more blocks
+        let mut rng = seeded(7);
+        let cams: Vec<Camera> = (0..3)
+            .map(|k| {
+                let a = 0.4 * k as f64;
+                let rot = DMat3::from_rotation_y(a) * DMat3::from_rotation_x(0.2 * a);
+                Camera::pinhole(
+                    "c",
+                    24,
+                    20,
+                    20.0,
+                    22.0,
+                    11.0,
+                    9.0,
+                    rot,
+                    DVec3::new(0.3 * k as f64, 0.1, 0.5),
+                )
+            })
+            .collect();
+        let mut v = TsdfVolume::new(p, false).unwrap();
+        for c in &cams {
+            let d: Vec<f32> = (0..24 * 20)
+                .map(|_| rng.random_range(0.01f32..2.999))
+                .collect();
+            v.integrate(&Frame {
+                camera: c,
+                depth: &d,
+                color: None,
+            })
+            .unwrap();
+        }
+        let b = p.block_bounds(&cams);
+        assert!(
+            (v.len() as u64) <= b.upper,
+            "{voxel} {trunc}: {} blocks, bound {b:?}",
+            v.len()
+        );
+        assert!(b.upper < 50 * v.len() as u64, "{b:?} vs {}", v.len());
+    }
+    let mut p = TsdfParams::new(0.01, 1e30, 3.0);
+    assert_eq!(p.sample_blocks(), (u64::MAX, u64::MAX));
+    p.max_blocks = 1000;
+    let cam = axis_camera(16, 12, 14.0, DVec3::ZERO);
+    let mut v = TsdfVolume::new(p, false).unwrap();
+    let e = v
+        .integrate(&Frame {
+            camera: &cam,
+            depth: &[1.0; 16 * 12],
+            color: None,
+        })
+        .unwrap_err();
+    assert!(e.to_string().contains("over the limit of 1000"), "{e}");
+    assert!(v.is_empty());
+}

@@ -129,6 +129,27 @@ pub fn samples_per_axis(n: usize) -> usize {
     }
 }
 
+/// Bytes per grid tile [`fuse_unbounded`] may hold: a dense tile of 16³
+/// f32 values (16,384), its key (24), its entry in the tile table (32) and
+/// its share of the per-tile mesh lists (three empty vectors, 72).
+pub const TILE_BYTES: u64 = (T * T * T * 4) as u64 + 24 + 32 + 72;
+
+/// Bytes per pixel of each view [`fuse_unbounded`] holds (all at once):
+/// the depth map (4), the RGB8 colours (3) and the min and max depth
+/// pyramids (2 × 4 × 4/3, rounded up to 11).
+pub const VIEW_BYTES_PER_PIXEL: u64 = 4 + 3 + 11;
+
+/// Upper bound of the bytes of the contracted grid at resolution `n`
+/// ([`UnboundedParams::resolution`]): every one of the ⌈M/16⌉³ tiles (M =
+/// [`samples_per_axis`]) dense, × [`TILE_BYTES`]. Saturating. The mesh
+/// extracted from the grid is not counted.
+pub fn grid_bytes(n: usize) -> u64 {
+    let nt = samples_per_axis(n).div_ceil(T) as u64;
+    nt.saturating_mul(nt)
+        .saturating_mul(nt)
+        .saturating_mul(TILE_BYTES)
+}
+
 /// A view prepared for sampling.
 struct PreparedView<'a> {
     w2c: DMat4,

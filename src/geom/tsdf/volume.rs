@@ -109,6 +109,192 @@ impl TsdfParams {
     pub fn unit_length(&self) -> f64 {
         self.voxel * UNIT as f64
     }
+
+    /// Blocks one usable depth sample touches (allocation step 2 of the
+    /// module docs), (at least, at most): with n = ⌊2·sdf_trunc / u⌋ (u the
+    /// block edge), the sample's cube [p − sdf_trunc, p + sdf_trunc] spans
+    /// n + 1 or n + 2 blocks per axis, so (n + 1)³ and (n + 2)³. Saturating
+    /// (u64::MAX for a truncation billions of blocks wide).
+    pub fn sample_blocks(&self) -> (u64, u64) {
+        let n = (2.0 * self.sdf_trunc / self.unit_length()).floor();
+        let cube = |k: f64| {
+            let k = k.min(1e7); // (1e7)³ is still below u64::MAX
+            if k.is_finite() {
+                (k as u64).pow(3)
+            } else {
+                u64::MAX
+            }
+        };
+        if n.is_finite() && n < 1e7 {
+            (cube(n + 1.0), cube(n + 2.0))
+        } else {
+            (u64::MAX, u64::MAX)
+        }
+    }
+
+    /// Bounds of the blocks fusing `cams` can create, before any depth is
+    /// seen (see [`BlockBounds`]). Depth samples of a view lie in its
+    /// viewing pyramid: apex at the camera centre, base the image rectangle
+    /// (pixel coordinates 0..W, 0..H) back-projected at z = depth_trunc; a
+    /// block touched by a sample lies in that pyramid dilated by the cube of
+    /// half-side r = sdf_trunc + u, whose volume is at most the Steiner
+    /// formula with the ball of radius ρ = √3·r: V + S·ρ + (π/2)·L·ρ² +
+    /// (4π/3)·ρ³ (V volume, S surface, L total edge length of the pyramid).
+    pub fn block_bounds(&self, cams: &[Camera]) -> BlockBounds {
+        let (per_min, per_max) = self.sample_blocks();
+        let u = self.unit_length();
+        let d = self.depth_trunc;
+        let r = self.sdf_trunc + u;
+        let rho = 3f64.sqrt() * r;
+        let st = self.stride.max(1) as u64;
+        let mut sum = 0f64;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        // each pyramid as half-spaces n·x ≤ b (unit n)
+        let mut planes: Vec<Vec<(DVec3, f64)>> = Vec::with_capacity(cams.len());
+        for c in cams {
+            let o = c.center();
+            let rot = c.c2w_rotation();
+            let (w, h) = (c.width as f64, c.height as f64);
+            let base: Vec<DVec3> = [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)]
+                .iter()
+                .map(|&(x, y)| {
+                    o + rot * DVec3::new((x - c.cx) / c.fx * d, (y - c.cy) / c.fy * d, d)
+                })
+                .collect();
+            for q in base.iter().chain(std::iter::once(&o)) {
+                lo = lo.min(*q);
+                hi = hi.max(*q);
+            }
+            let vol = (w / c.fx * d).abs() * (h / c.fy * d).abs() * d / 3.0;
+            let tri = |a: DVec3, b: DVec3, e: DVec3| 0.5 * (b - a).cross(e - a).length();
+            let mut area = tri(base[0], base[1], base[2]) + tri(base[0], base[2], base[3]);
+            let mut edges = 0.0;
+            for k in 0..4 {
+                let (a, b) = (base[k], base[(k + 1) % 4]);
+                area += tri(o, a, b);
+                edges += (b - a).length() + (a - o).length();
+            }
+            let dilated = vol
+                + area * rho
+                + std::f64::consts::FRAC_PI_2 * edges * rho * rho
+                + 4.0 / 3.0 * std::f64::consts::PI * rho.powi(3);
+            let inside = base.iter().fold(DVec3::ZERO, |a, q| a + *q) / 4.0;
+            let mut pl = Vec::with_capacity(6);
+            for k in 0..4 {
+                let n = (base[k] - o)
+                    .cross(base[(k + 1) % 4] - o)
+                    .normalize_or_zero();
+                let n = if n.dot(inside - o) > 0.0 { -n } else { n };
+                pl.push((n, n.dot(o)));
+            }
+            let axis = rot * DVec3::Z;
+            pl.push((axis, axis.dot(o) + d));
+            pl.push((-axis, -axis.dot(o)));
+            planes.push(pl);
+            let frustum = (dilated / u.powi(3)).ceil();
+            let samples =
+                (c.width as u64).div_ceil(st) as f64 * (c.height as u64).div_ceil(st) as f64;
+            sum += frustum.min(samples * per_max as f64);
+        }
+        let aabb = if cams.is_empty() {
+            0.0
+        } else {
+            (0..3)
+                .map(|k| {
+                    ((hi[k] + self.sdf_trunc) / u).floor() - ((lo[k] - self.sdf_trunc) / u).floor()
+                        + 1.0
+                })
+                .product::<f64>()
+        };
+        let union = union_blocks(&planes, lo, hi, u, self.sdf_trunc);
+        let upper = sum.min(aabb).min(union);
+        BlockBounds {
+            per_sample_min: per_min,
+            per_sample_max: per_max,
+            // `as` saturates; NaN (no finite bound) counts as unbounded
+            upper: if upper.is_nan() {
+                u64::MAX
+            } else {
+                upper as u64
+            },
+        }
+    }
+}
+
+/// Most cells [`union_blocks`] tests (each against every view).
+const UNION_CELLS: f64 = (1u64 << 18) as f64;
+
+/// An upper bound of the blocks that meet the union of the dilated viewing
+/// pyramids `planes` (half-spaces n·x ≤ b, unit n, one list per view) whose
+/// vertices span the box `lo`..`hi`: the block grid over that box widened
+/// by `tr` is cut into cubic cells of s³ blocks (s ≥ 1, at most
+/// [`UNION_CELLS`] cells); a cell is kept when, for some view, its centre c
+/// satisfies n·c − b ≤ (tr + u + g/2)·‖n‖₁ for every plane (g = s·u; a
+/// cell meeting the pyramid dilated by the cube of half-side tr + u passes,
+/// since that dilation moves each plane by at most (tr + u)·‖n‖₁); the
+/// blocks of the kept cells are counted. `f64::INFINITY` when the box is
+/// not finite.
+fn union_blocks(planes: &[Vec<(DVec3, f64)>], lo: DVec3, hi: DVec3, u: f64, tr: f64) -> f64 {
+    if planes.is_empty() {
+        return 0.0;
+    }
+    let blo = ((lo - DVec3::splat(tr)) / u).floor();
+    let bhi = ((hi + DVec3::splat(tr)) / u).floor();
+    let nb = bhi - blo + DVec3::ONE;
+    let total = nb.x * nb.y * nb.z;
+    if !total.is_finite() || total <= 0.0 {
+        return f64::INFINITY;
+    }
+    let s = (total / UNION_CELLS).cbrt().ceil().max(1.0);
+    let nc = (nb / s).ceil();
+    let cells = nc.x * nc.y * nc.z;
+    if cells.is_nan() || cells > 2.0 * UNION_CELLS {
+        return f64::INFINITY;
+    }
+    let (cx, cy, cz) = (nc.x as usize, nc.y as usize, nc.z as usize);
+    let g = s * u;
+    let reach = tr + u + g / 2.0;
+    (0..cx * cy * cz)
+        .into_par_iter()
+        .map(|i| {
+            let idx = DVec3::new(
+                (i / (cy * cz)) as f64,
+                ((i / cz) % cy) as f64,
+                (i % cz) as f64,
+            );
+            let first = blo + idx * s;
+            let c = first * u + DVec3::splat(g / 2.0);
+            let hit = planes.iter().any(|pl| {
+                pl.iter()
+                    .all(|(n, b)| n.dot(c) - b <= reach * (n.x.abs() + n.y.abs() + n.z.abs()))
+            });
+            if !hit {
+                return 0.0;
+            }
+            // blocks of this cell inside the grid
+            let left = (bhi - first + DVec3::ONE).min(DVec3::splat(s));
+            left.x * left.y * left.z
+        })
+        .sum()
+}
+
+/// How many blocks a fusion can create, known before any depth is seen
+/// ([`TsdfParams::block_bounds`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BlockBounds {
+    /// Blocks a single usable depth sample creates at least (see
+    /// [`TsdfParams::sample_blocks`]): a fusion that sees anything needs
+    /// this many.
+    pub per_sample_min: u64,
+    /// Blocks a single sample touches at most.
+    pub per_sample_max: u64,
+    /// Blocks all the views can create at most: the smaller of (a) the sum
+    /// over views of min(the stride's samples × `per_sample_max`, the
+    /// blocks in the view's dilated viewing pyramid), (b) the blocks of
+    /// the box bounding every pyramid, widened by sdf_trunc, and (c) the
+    /// blocks of the cells of that box that meet some dilated pyramid
+    /// ([`union_blocks`]).
+    pub upper: u64,
 }
 
 /// One frame to fuse: a camera, its z-depth map (row-major, `width·height`,
@@ -335,7 +521,7 @@ impl TsdfVolume {
         let mut new_set: FxHashSet<[i32; 3]> = FxHashSet::default();
         let mut created = Vec::with_capacity(frames.len());
         for p in &prepared {
-            let touched = self.touched_blocks(p);
+            let touched = self.touched_blocks(p, self.params.max_blocks)?;
             let mut c = 0;
             for k in &touched {
                 if !self.index.contains_key(k) && new_set.insert(*k) {
@@ -452,45 +638,78 @@ impl TsdfVolume {
 
     /// The blocks a frame touches (allocation rule 2 of the module docs),
     /// sorted.
-    fn touched_blocks(&self, p: &Prepared) -> Vec<[i32; 3]> {
+    fn touched_blocks(&self, p: &Prepared, limit: usize) -> Result<Vec<[i32; 3]>> {
         let oc = &p.oc;
         let (w, h) = (oc.width, oc.height);
         let px = &p.pixels;
         let c2w = oc.w2c.inverse();
         let st = self.params.stride;
         let tr = self.params.sdf_trunc;
+        let too_many = |n: u64| {
+            Error::invalid(format!(
+                "TSDF volume would need more than {n} blocks of 16³ voxels ({:.1} GiB), over the \
+                 limit of {limit}: raise the voxel size or lower sdf_trunc or depth_trunc",
+                n as f64 * Self::block_bytes(self.with_color) as f64 / (1u64 << 30) as f64,
+            ))
+        };
         let rows: Vec<usize> = (0..h).step_by(st).collect();
-        let touched_sets: Vec<FxHashSet<[i32; 3]>> = rows
-            .par_iter()
-            .map(|&i| {
-                let mut set = FxHashSet::default();
-                for j in (0..w).step_by(st) {
-                    let z = px[i * w + j].depth as f64;
-                    if z <= 0.0 {
-                        continue;
-                    }
-                    let x = (j as f64 - oc.cx) * z / oc.fx;
-                    let y = (i as f64 - oc.cy) * z / oc.fy;
-                    let p = (c2w * DVec4::new(x, y, z, 1.0)).truncate();
-                    let lo = self.locate(p - DVec3::splat(tr));
-                    let hi = self.locate(p + DVec3::splat(tr));
-                    for bx in lo[0]..=hi[0] {
-                        for by in lo[1]..=hi[1] {
-                            for bz in lo[2]..=hi[2] {
-                                set.insert([bx, by, bz]);
+        // rows a pass at a time, so the row sets held at once stay bounded
+        // by the limit (each row stops once it alone is over it)
+        let mut touched: Vec<[i32; 3]> = Vec::new();
+        for pass in rows.chunks(ROWS_PER_PASS) {
+            let touched_sets: Vec<Option<FxHashSet<[i32; 3]>>> = pass
+                .par_iter()
+                .map(|&i| {
+                    let mut set = FxHashSet::default();
+                    for j in (0..w).step_by(st) {
+                        let z = px[i * w + j].depth as f64;
+                        if z <= 0.0 {
+                            continue;
+                        }
+                        let x = (j as f64 - oc.cx) * z / oc.fx;
+                        let y = (i as f64 - oc.cy) * z / oc.fy;
+                        let p = (c2w * DVec4::new(x, y, z, 1.0)).truncate();
+                        let lo = self.locate(p - DVec3::splat(tr));
+                        let hi = self.locate(p + DVec3::splat(tr));
+                        // one sample's block range is checked before it is
+                        // walked: with a huge sdf_trunc it holds billions
+                        let span = (0..3)
+                            .map(|k| (i64::from(hi[k]) - i64::from(lo[k]) + 1) as u64)
+                            .fold(1u64, u64::saturating_mul);
+                        if span > limit as u64 {
+                            return None;
+                        }
+                        for bx in lo[0]..=hi[0] {
+                            for by in lo[1]..=hi[1] {
+                                for bz in lo[2]..=hi[2] {
+                                    set.insert([bx, by, bz]);
+                                }
                             }
                         }
+                        if set.len() > limit {
+                            return None;
+                        }
                     }
-                }
-                set
-            })
-            .collect();
-        let mut touched: Vec<[i32; 3]> = touched_sets.into_iter().flatten().collect();
-        touched.par_sort_unstable();
-        touched.dedup();
-        touched
+                    Some(set)
+                })
+                .collect();
+            for set in touched_sets {
+                let set = set.ok_or_else(|| too_many(limit as u64 + 1))?;
+                touched.extend(set);
+            }
+            touched.par_sort_unstable();
+            touched.dedup();
+            if touched.len() > limit {
+                return Err(too_many(touched.len() as u64));
+            }
+        }
+        Ok(touched)
     }
 }
+
+/// Rows of a frame whose touched blocks are gathered at once (in parallel)
+/// before they are merged and counted.
+const ROWS_PER_PASS: usize = 64;
 
 /// A frame checked and prepared for integration.
 struct Prepared {

@@ -612,3 +612,53 @@ fn load_views_without_background_drops_alpha() {
     assert!(v[0].alpha.is_none());
     assert_eq!(v[0].image[0], [1.0, 0.0, 0.0]);
 }
+
+/// [`views_bytes`] covers the views a load holds (image, mask and alpha at
+/// their real element sizes) at every downscale; two 16384² cameras need
+/// more than 9 GiB (the CLI test `budget::image_buffers_beyond_the_budget`
+/// checks the refusal).
+#[test]
+fn photo_memory_is_estimated_before_decoding() {
+    use std::mem::size_of;
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    colmap_text(&root.join("sparse/0"), "PINHOLE", &["a.png", "b.png"]);
+    png(&root.join("images/a.png"), 8, 6, 4, &[255, 0, 0, 128]);
+    png(&root.join("images/b.png"), 8, 6, 4, &[0, 0, 255, 255]);
+    for k in [1u32, 2] {
+        let ds = load_dataset(
+            root,
+            &DatasetOptions {
+                downscale: k,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let held: usize = ds
+            .views
+            .iter()
+            .map(|v| {
+                v.image.len() * size_of::<[f32; 3]>()
+                    + v.mask.as_ref().map_or(0, |m| m.len() * size_of::<bool>())
+                    + v.alpha.as_ref().map_or(0, |a| a.len() * size_of::<f32>())
+            })
+            .sum();
+        assert!(ds.views[0].alpha.is_some());
+        let cams: Vec<Camera> = read_cameras(&root.join("sparse/0")).unwrap();
+        assert!(views_bytes(&cams, k, 1, 0) >= held as u64, "k = {k}");
+    }
+    // 16384² declared: 2 × 2^28 × 17 bytes held, beyond a 24 GiB machine too
+    let big = Camera::pinhole(
+        "a.png",
+        16384,
+        16384,
+        1e4,
+        1e4,
+        8192.0,
+        8192.0,
+        DMat3::IDENTITY,
+        DVec3::ZERO,
+    );
+    assert!(views_bytes(&[big.clone(), big], 1, 2, 0) > 9 << 30);
+    assert_eq!(views_bytes(&[], 1, 4, 100), 0);
+}

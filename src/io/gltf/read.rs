@@ -221,8 +221,7 @@ fn load_buffers<'a>(
                 };
                 let rel = percent_decode(uri);
                 let p = base.join(&rel);
-                let input = crate::io::read_input(&p)?;
-                Cow::Owned(input.to_vec())
+                Cow::Owned(read_external(name, &what, uri, &p, b.length())?)
             }
         };
         if data.len() < b.length() {
@@ -238,6 +237,46 @@ fn load_buffers<'a>(
         out.push(data);
     }
     Ok(out)
+}
+
+/// Reads exactly the `len` bytes a buffer declares from its external file
+/// `path` (`uri` as written in `name`): the length is checked against the
+/// memory budget, and against the file's size when it is a regular file,
+/// before anything is read; a device or FIFO is read up to `len` bytes only.
+/// Errors name the glTF file, the buffer and the URI.
+fn read_external(name: &str, what: &str, uri: &str, path: &Path, len: usize) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let fail = |msg: String| Error::format(name, format!("{what} ('{uri}'): {msg}"));
+    crate::io::budget::check(&format!("byteLength {len}"), len as u64)
+        .map_err(|e| fail(e.to_string()))?;
+    crate::io::transaction::note_input(path)?;
+    let file = std::fs::File::open(path).map_err(|e| fail(format!("{}: {e}", path.display())))?;
+    let meta = file
+        .metadata()
+        .map_err(|e| fail(format!("{}: {e}", path.display())))?;
+    if meta.is_dir() {
+        return Err(fail(format!("{} is a folder", path.display())));
+    }
+    if meta.is_file() && meta.len() < len as u64 {
+        return Err(fail(format!(
+            "byteLength is {len} but {} has only {} bytes",
+            path.display(),
+            meta.len()
+        )));
+    }
+    let mut v = Vec::with_capacity(len.min(1 << 20));
+    (&file)
+        .take(len as u64)
+        .read_to_end(&mut v)
+        .map_err(|e| fail(format!("{}: {e}", path.display())))?;
+    if v.len() < len {
+        return Err(fail(format!(
+            "byteLength is {len} but {} gave only {} bytes",
+            path.display(),
+            v.len()
+        )));
+    }
+    Ok(v)
 }
 
 /// The meshes to read with their world transforms.

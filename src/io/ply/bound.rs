@@ -20,7 +20,9 @@
 //! - a header comment `splatkit bound-gaussians per_face N`.
 //!
 //! Reading checks every part against the others (counts, the table, the face
-//! order, the thickness) and names the first inconsistency.
+//! order, the thickness) and names the first inconsistency; before that it
+//! refuses any NaN or infinite value (the 3DGS properties, the binding, the
+//! bound mesh's vertices), naming the Gaussian or vertex and the property.
 
 use super::common::{f32_col, push_rgba, push_xyz, take_rgba, take_xyz};
 use crate::model::bound::{BoundGaussians, barycentrics};
@@ -161,6 +163,41 @@ pub fn detach(name: &str, g: &Gaussians) -> Result<BoundGaussians> {
     let vertices = take_xyz(name, &mut ve_cols, ["x", "y", "z"])?
         .ok_or_else(|| bad(name, format!("element {MESH_VERTEX} has no x, y, z")))?;
     let vertex_colors = take_rgba(name, &mut ve_cols)?;
+    // Finite values before any comparison: a NaN would slip through
+    // `(a - b).abs() > tol` and travel into every derived mean and rotation.
+    // The bound mesh first, then the binding, then the derived 3DGS values,
+    // so that the first value named is the cause, not a consequence.
+    if let Some(t) = super::first_non_finite(vertices.as_flattened()) {
+        return Err(bad(
+            name,
+            format!(
+                "{MESH_VERTEX} {} has a non-finite coordinate ({} = {})",
+                t / 3,
+                ["x", "y", "z"][t % 3],
+                vertices[t / 3][t % 3]
+            ),
+        ));
+    }
+    let binding = [
+        ("face_index", &face_index),
+        ("bary_0", &bary[0]),
+        ("bary_1", &bary[1]),
+        ("bary_2", &bary[2]),
+        ("complex_re", &re),
+        ("complex_im", &im),
+    ];
+    for (prop, values) in binding {
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(bad(
+                name,
+                format!(
+                    "Gaussian {i} has {prop} = {}, not a finite number",
+                    values[i]
+                ),
+            ));
+        }
+    }
+    super::gaussians::check_finite(name, g)?;
     let corners: Vec<Vec<f64>> = FACE_PROPERTIES
         .iter()
         .map(|p| scalar_f64(name, fe, p))
@@ -213,7 +250,9 @@ pub fn detach(name: &str, g: &Gaussians) -> Result<BoundGaussians> {
         }
         let want = table[i % per_face];
         for k in 0..3 {
-            if (bary[k][i] - want[k] as f64).abs() > 1e-6 {
+            // written so that a NaN fails it too (`NaN > tol` is false)
+            let d = (bary[k][i] - want[k] as f64).abs();
+            if !(d.is_finite() && d <= 1e-6) {
                 return Err(bad(
                     name,
                     format!(

@@ -314,6 +314,9 @@ impl GaussianTrainer {
     }
 
     /// One optimisation step.
+    /// A step whose loss is not finite changes nothing (no update, the
+    /// iteration count stays) and returns that loss; see
+    /// [`crate::train::finite`].
     pub fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let p = self.params.clone();
         let it1 = self.iteration + 1; // the reference's 1-based iteration
@@ -397,6 +400,21 @@ impl GaussianTrainer {
             self.adc
                 .observe(&gg.means2d_ndc(cam.width, cam.height), &radii);
         }
+        if !(photo + reg_loss).is_finite() {
+            // no update and no iteration counted: the model stays as it
+            // was, so the caller can name the value that made the loss
+            // non-finite (train::finite) instead of the NaN Adam would
+            // spread from it to every parameter
+            return StepStats {
+                iteration: self.iteration,
+                view: vi,
+                loss: photo + reg_loss,
+                photometric: photo,
+                regularizer: reg_loss,
+                psnr,
+                count: self.model.len(),
+            };
+        }
         self.apply(&gg, &reg, d);
         self.iteration += 1;
         self.edit(train.len());
@@ -461,6 +479,29 @@ impl GaussianTrainer {
             self.groups.remap(&src);
             self.nbrs = None;
         }
+    }
+
+    /// The first NaN or infinite parameter (means, SH, opacity, scales,
+    /// rotations), described ([`crate::train::finite`]); `None` when all
+    /// are finite.
+    pub fn non_finite(&self) -> Option<String> {
+        use super::finite::{Param, first_non_finite};
+        let m = &self.model;
+        let k3 = m.rest_per_channel() * 3;
+        let p = |name, width, values| Param {
+            name,
+            unit: "Gaussian",
+            width,
+            values,
+        };
+        first_non_finite(&[
+            p(GROUPS[0], 3, m.means.as_flattened()),
+            p(GROUPS[1], 3, m.sh_dc.as_flattened()),
+            p(GROUPS[2], k3, &m.sh_rest),
+            p(GROUPS[3], 1, &m.opacity_logits),
+            p(GROUPS[4], 3, m.log_scales.as_flattened()),
+            p(GROUPS[5], 4, m.rotations.as_flattened()),
+        ])
     }
 
     /// PSNR / SSIM on the views `test` at the current SH degree.

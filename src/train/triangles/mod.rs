@@ -309,6 +309,9 @@ impl TriangleTrainer {
     }
 
     /// One optimisation step on `views[view_at(train, seed, iteration)]`.
+    /// A step whose loss is not finite changes nothing (no update, the
+    /// iteration count stays) and returns that loss; see
+    /// [`crate::train::finite`].
     pub fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let p = self.params.clone();
         let vi = view_at(train, p.seed, self.iteration);
@@ -378,6 +381,20 @@ impl TriangleTrainer {
                 g_o[i] += (d * o * (1.0 - o)) as f32;
             }
         }
+        if !loss.is_finite() {
+            // no update and no iteration counted: the soup stays as it was,
+            // so the caller can name the value that made the loss
+            // non-finite (train::finite) instead of the NaN Adam would
+            // spread from it to every parameter
+            return StepStats {
+                iteration: self.iteration,
+                view: vi,
+                loss,
+                photometric: photo,
+                psnr,
+                count: self.soup.len(),
+            };
+        }
         let m = &mut self.soup;
         self.groups.step(0, flat(&mut m.triangles), flat(&mut gv));
         self.groups.step(1, flat(&mut m.sh_dc), flat(&mut g_dc));
@@ -445,6 +462,27 @@ impl TriangleTrainer {
         evaluate(views, test, self.iteration, |v| {
             render(&t3, &v.camera, &s).rgb
         })
+    }
+
+    /// The first NaN or infinite parameter (vertices, SH, opacity, sigma),
+    /// described ([`crate::train::finite`]); `None` when all are finite.
+    pub fn non_finite(&self) -> Option<String> {
+        use super::finite::{Param, first_non_finite};
+        let s = &self.soup;
+        let k3 = s.rest_per_channel() * 3;
+        let p = |name, width, values| Param {
+            name,
+            unit: "triangle",
+            width,
+            values,
+        };
+        first_non_finite(&[
+            p(GROUPS[0], 9, s.triangles.as_flattened().as_flattened()),
+            p(GROUPS[1], 3, s.sh_dc.as_flattened()),
+            p(GROUPS[2], k3, &s.sh_rest),
+            p(GROUPS[3], 1, &s.opacity_raw),
+            p(GROUPS[4], 1, &s.sigma_raw),
+        ])
     }
 
     /// The soup with the active SH degree reached so far (what is saved).

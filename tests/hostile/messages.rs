@@ -1,0 +1,277 @@
+//! Issue 23, item 7: messages name the file (for `chamfer` also the side:
+//! prediction / ground truth), the element and the flag; a numeric flag
+//! whose value has no meaning is refused when parsed (exit 2), before any
+//! input is read or output written.
+
+use std::path::{Path, PathBuf};
+
+use super::common::{fails, run};
+
+use splatkit::io::any::save;
+use splatkit::io::cameras::write_gs_json;
+use splatkit::io::detect::FileFormat;
+use splatkit::model::{Gaussians, Mesh, PointCloud, Scene};
+use splatkit::testing::{cameras_around, write_sphere_dataset};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Every file under `root` (recursively), with its bytes.
+fn snapshot(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut todo = vec![root.to_path_buf()];
+    while let Some(p) = todo.pop() {
+        if p.is_dir() {
+            for e in std::fs::read_dir(&p).unwrap() {
+                todo.push(e.unwrap().path());
+            }
+        } else {
+            out.push((p.clone(), std::fs::read(&p).unwrap()));
+        }
+    }
+    out.sort();
+    out
+}
+
+fn mesh_file(dir: &Path, name: &str, m: Mesh) -> PathBuf {
+    let p = dir.join(name);
+    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
+    p
+}
+
+fn triangle() -> Mesh {
+    Mesh::new(
+        vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2]],
+    )
+}
+
+/// A mesh whose only face has zero area (collinear corners).
+fn flat() -> Mesh {
+    Mesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+        vec![[0, 1, 2]],
+    )
+}
+
+/// `chamfer` cannot sample a mesh of zero area: the message names the file
+/// and its side, whichever side it is on.
+#[test]
+fn chamfer_zero_area_names_file_and_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let good = mesh_file(d, "good.ply", triangle());
+    let bad = mesh_file(d, "flat.ply", flat());
+    let before = snapshot(d);
+    for (pred, gt, side) in [(&bad, &good, "prediction"), (&good, &bad, "ground truth")] {
+        let o = run("chamfer", &[s(pred), s(gt), "--count", "100"], None);
+        fails(&o, 1, &[&format!("{side} "), "flat.ply", "total area is 0"]);
+        assert_eq!(snapshot(d), before);
+    }
+}
+
+/// `splat2points` whose rays never cross `--level` names the scene file
+/// and the level.
+#[test]
+fn splat2points_no_crossing_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cams = d.join("cameras.json");
+    write_gs_json(&cams, &cameras_around(3, 4.0, 24, 30.0)).unwrap();
+    // one Gaussian of opacity 0.51: its density never reaches 0.9
+    let g = Gaussians {
+        means: vec![[0.0; 3]],
+        normals: None,
+        sh_degree: 0,
+        sh_dc: vec![[0.5; 3]],
+        sh_rest: Vec::new(),
+        opacity_logits: vec![0.04],
+        log_scales: vec![[-1.0; 3]],
+        rotations: vec![[1.0, 0.0, 0.0, 0.0]],
+        extras: Default::default(),
+    };
+    let scene = d.join("faint.ply");
+    save(&scene, &Scene::Gaussians(g), FileFormat::Ply).unwrap();
+    let out = d.join("points.ply");
+    let o = run(
+        "splat2points",
+        &[
+            s(&scene),
+            "--cameras",
+            s(&cams),
+            "--all-views",
+            "--level",
+            "0.9",
+            "-o",
+            s(&out),
+        ],
+        None,
+    );
+    fails(&o, 1, &["faint.ply", "no ray crossed", "--level 0.9"]);
+    assert!(!out.exists(), "no output for a run that made no point");
+}
+
+/// `train` with a non-finite seed point names the file it came from
+/// (`input.ply`), whether the reader or the initialisation finds it.
+#[test]
+fn train_seed_error_names_the_points_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    write_sphere_dataset(&data, 4, 16, 20).unwrap();
+    let mut pc = splatkit::testing::sphere_points(20, 3);
+    pc.positions[0] = [f32::NAN, 0.0, 0.0];
+    save(
+        &data.join("input.ply"),
+        &Scene::PointCloud(pc),
+        FileFormat::Ply,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let before = snapshot(dir.path());
+    for model in ["triangles", "gaussians"] {
+        let o = run(
+            "train",
+            &[model, s(&data), "-o", s(&out), "--iterations", "2", "-q"],
+            None,
+        );
+        fails(&o, 1, &["input.ply", "finite"]);
+        assert_eq!(snapshot(dir.path()), before);
+    }
+}
+
+/// `poisson --width W` too fine for 16 octree levels says that `--width`
+/// implies the depth, and the smallest width that fits.
+#[test]
+fn poisson_width_is_named_for_its_depth() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let pts = d.join("pts.ply");
+    let pc = PointCloud {
+        positions: (0..8)
+            .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32])
+            .collect(),
+        normals: Some(vec![[0.0, 0.0, 1.0]; 8]),
+        ..Default::default()
+    };
+    save(&pts, &Scene::PointCloud(pc), FileFormat::Ply).unwrap();
+    let out = d.join("mesh.ply");
+    let o = run(
+        "poisson",
+        &[s(&pts), "--width", "1e-9", "-o", s(&out)],
+        None,
+    );
+    fails(&o, 1, &["--width 1e-9", "depth", "2..=16", "at least"]);
+    assert!(!out.exists());
+}
+
+/// Numeric flags with no meaning — NaN, out of range, zero where nothing
+/// would come out — are refused at parse (exit 2, naming the flag), before
+/// any file is read: the inputs named here do not even exist.
+#[test]
+fn bad_flag_values_fail_at_parse() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out");
+    let o = s(&out);
+    let cases: &[(&str, &[&str], &str)] = &[
+        ("decimate", &["m.ply", "--ratio", "NaN"], "--ratio"),
+        ("decimate", &["m.ply", "--ratio", "1.5"], "--ratio"),
+        ("decimate", &["m.ply", "--ratio=-0.5"], "--ratio"),
+        ("poisson", &["p.ply", "--depth", "30"], "--depth"),
+        ("poisson", &["p.ply", "--depth", "1"], "--depth"),
+        ("poisson", &["p.ply", "--full-depth", "17"], "--full-depth"),
+        ("poisson", &["p.ply", "--bbox", "1,2,3"], "--bbox"),
+        ("poisson", &["p.ply", "--bbox=0,0,0,-1,1,1"], "--bbox"),
+        ("poisson", &["p.ply", "--bbox", "0,0,0,nan,1,1"], "--bbox"),
+        (
+            "clean",
+            &["m.ply", "--min-component-area", "nan"],
+            "--min-component-area",
+        ),
+        (
+            "clean",
+            &["m.ply", "--min-component-area", "2"],
+            "--min-component-area",
+        ),
+        (
+            "prune-triangles",
+            &["s.ply", "--min-opacity", "1.5"],
+            "--min-opacity",
+        ),
+        (
+            "prune-triangles",
+            &["s.ply", "--min-opacity", "nan"],
+            "--min-opacity",
+        ),
+        (
+            "prune-triangles",
+            &["s.ply", "--max-sigma", "0"],
+            "--max-sigma",
+        ),
+        (
+            "prune-triangles",
+            &["s.ply", "--max-sigma", "inf"],
+            "--max-sigma",
+        ),
+        ("chamfer", &["a.ply", "b.ply", "--count", "0"], "--count"),
+        ("chamfer", &["a.ply", "b.ply", "--tau", "0.1,nan"], "--tau"),
+        ("chamfer", &["a.ply", "b.ply", "--tau=-1"], "--tau"),
+        (
+            "train",
+            &["triangles", "data", "--max-shapes", "0"],
+            "--max-shapes",
+        ),
+        (
+            "train",
+            &["gaussians", "data", "--resolution", "0"],
+            "--resolution",
+        ),
+        (
+            "refine",
+            &[
+                "b.ply",
+                "--images",
+                "i",
+                "--cameras",
+                "c.json",
+                "--resolution",
+                "0",
+            ],
+            "--resolution",
+        ),
+        (
+            "train",
+            &["gaussians", "data", "--test-every", "1"],
+            "--test-every",
+        ),
+        (
+            "splat2points",
+            &["g.ply", "--every-nth-test", "1"],
+            "--every-nth-test",
+        ),
+        (
+            "refine",
+            &[
+                "b.ply",
+                "--images",
+                "i",
+                "--cameras",
+                "c.json",
+                "--test-every",
+                "1",
+            ],
+            "--test-every",
+        ),
+    ];
+    for (bin, args, flag) in cases {
+        let mut a = args.to_vec();
+        if *bin != "chamfer" {
+            a.extend(["-o", o]);
+        }
+        let r = run(bin, &a, None);
+        // clap's own error: exit 2, the flag named, nothing read or written
+        fails(&r, 2, &[flag]);
+        assert!(!out.exists(), "{bin} {args:?} wrote output");
+    }
+}
