@@ -94,6 +94,12 @@ pub fn save_bound(path: &std::path::Path, b: &BoundGaussians) -> crate::Result<(
     save_gaussians(path, &attach(b, materialize(b)))
 }
 
+/// Working bytes per pixel of the largest view while colours are taken from
+/// the photos (`rgb_from_views`: the mesh z-buffer's depth, face index and
+/// barycentrics, at most 32 bytes), on top of the photos themselves
+/// (`io::dataset::check_views_budget`).
+const BIND_BYTES_PER_PIXEL: u64 = 32;
+
 /// `bind-gaussians` entry point.
 pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
     args.common.init()?;
@@ -202,9 +208,16 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
                     .with_context(|| format!("colours from {}", shown(src, false)))?;
                 colors = "highest-weight source Gaussian";
             }
-            if let (Some(dir), Some(cams)) = (&args.images, &args.cameras) {
-                let mut cams = read_cameras(cams)?;
+            if let (Some(dir), Some(cams_path)) = (&args.images, &args.cameras) {
+                let mut cams = read_cameras(cams_path)?;
                 cams.sort_by(|a, b| a.name.cmp(&b.name));
+                // every photo is held at once: checked before any is decoded
+                crate::io::dataset::check_views_budget(
+                    cams_path,
+                    &cams,
+                    args.downscale,
+                    BIND_BYTES_PER_PIXEL,
+                )?;
                 let views = load_views(
                     &cams,
                     dir,

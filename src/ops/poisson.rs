@@ -121,10 +121,38 @@ fn parse_bbox(s: &str) -> Result<String, String> {
         .map_err(|e| e.to_string())
 }
 
+/// Bytes per octree node of the complete levels, an estimate: the cell
+/// key and its hash slots, one row of the 27-neighbour system (values and
+/// column indices) and the multigrid vectors (solution, right-hand side,
+/// residual, weights) come to about 400–500 bytes.
+const BYTES_PER_FULL_NODE: u64 = 512;
+
+/// Nodes of an octree complete to level `full`: Σ 8^l for l ≤ full.
+fn full_nodes(full: u32) -> u64 {
+    (0..=full).fold(0u64, |a, l| a.saturating_add(8u64.saturating_pow(l)))
+}
+
 /// `poisson` entry point.
 pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
     args.common.init()?;
     args.common.check_output(&args.output, true)?;
+    // The complete levels are allocated whatever the points: checked
+    // before anything is read (the adaptive part grows with the input).
+    // (with --width the depth is known only from the points: not capped)
+    let depth = match args.width {
+        Some(_) => 16,
+        None => args.depth.unwrap_or(if args.sugar { 10 } else { 8 }),
+    };
+    let full = args.full_depth.min(depth);
+    crate::io::budget::check(
+        &format!(
+            "--full-depth {}: the {} nodes of an octree complete to depth {full}",
+            args.full_depth,
+            full_nodes(full)
+        ),
+        full_nodes(full).saturating_mul(BYTES_PER_FULL_NODE),
+    )
+    .map_err(|e| crate::cli::usage(e.to_string()))?;
     if args.foreground_only && args.split_by_cameras.is_none() && args.bbox.is_none() {
         anyhow::bail!("--foreground-only needs --split-by-cameras or --bbox");
     }

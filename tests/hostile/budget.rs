@@ -432,3 +432,62 @@ fn tsdf_grids_beyond_the_budget() {
         None,
     ));
 }
+
+/// `poisson --full-depth` allocates the complete levels whatever the
+/// points (8^12 nodes at 12): refused as a usage error naming the flag and
+/// the budget before the points are read; the default still runs.
+#[test]
+fn poisson_full_depth_beyond_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.ply");
+    // The points file need not exist: the flag is refused first.
+    let pts = dir.path().join("missing.ply");
+    let o = super::common::run(
+        "poisson",
+        &[
+            pts.to_str().unwrap(),
+            "--depth",
+            "12",
+            "--full-depth",
+            "12",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    super::common::fails(&o, 2, &["--full-depth 12", "memory budget"]);
+    assert!(!out.exists());
+}
+
+/// `tsdf-fuse --voxel 1e-30` (sdf_trunc 5 voxels): each sample touches one
+/// block, but the block indices of a surface at distance ~3 are ~10^29,
+/// beyond the `i32` voxel indices. Refused naming the voxel size, where it
+/// used to overflow (a panic in debug builds, wrapped indices in release).
+#[test]
+fn tsdf_indices_beyond_their_range() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("in");
+    std::fs::create_dir(&dir).unwrap();
+    let mesh = mesh_file(&dir, "sphere.ply", uv_sphere(12, 1.0));
+    let cams = cameras_file(&dir, "cameras.json", &cameras_around(2, 3.5, 24, 20.0));
+    let out = tmp.path().join("fused.ply");
+    let args = [
+        s(&mesh),
+        "--cameras",
+        s(&cams),
+        "-o",
+        s(&out),
+        "--voxel",
+        "1e-30",
+    ];
+    // (`parse = true`: the message is not a budget one)
+    refused(
+        &dir,
+        "tsdf-fuse",
+        &args,
+        1,
+        &["voxel size", "address"],
+        true,
+    );
+    assert!(!out.exists());
+}

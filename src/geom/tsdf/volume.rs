@@ -482,6 +482,16 @@ impl TsdfVolume {
         v
     }
 
+    /// True when world point `p` lies within the block indices the volume
+    /// can address: voxel indices are block index × 16 + offset in `i32`,
+    /// so a block index must stay below 2^31 / 16 in size (a point 10^29
+    /// voxels away, from `--voxel 1e-30`, would overflow them).
+    fn addressable(&self, p: DVec3) -> bool {
+        let u = self.params.unit_length();
+        let limit = (i32::MAX / UNIT as i32 / 2) as f64;
+        (p / u).abs().max_element() < limit
+    }
+
     /// The block index holding world point `p` (Open3D `LocateVolumeUnit`).
     fn locate(&self, p: DVec3) -> [i32; 3] {
         let u = self.params.unit_length();
@@ -657,7 +667,7 @@ impl TsdfVolume {
         // by the limit (each row stops once it alone is over it)
         let mut touched: Vec<[i32; 3]> = Vec::new();
         for pass in rows.chunks(ROWS_PER_PASS) {
-            let touched_sets: Vec<Option<FxHashSet<[i32; 3]>>> = pass
+            let touched_sets: Vec<std::result::Result<FxHashSet<[i32; 3]>, Option<DVec3>>> = pass
                 .par_iter()
                 .map(|&i| {
                     let mut set = FxHashSet::default();
@@ -669,6 +679,11 @@ impl TsdfVolume {
                         let x = (j as f64 - oc.cx) * z / oc.fx;
                         let y = (i as f64 - oc.cy) * z / oc.fy;
                         let p = (c2w * DVec4::new(x, y, z, 1.0)).truncate();
+                        if !self.addressable(p - DVec3::splat(tr))
+                            || !self.addressable(p + DVec3::splat(tr))
+                        {
+                            return Err(Some(p));
+                        }
                         let lo = self.locate(p - DVec3::splat(tr));
                         let hi = self.locate(p + DVec3::splat(tr));
                         // one sample's block range is checked before it is
@@ -677,7 +692,7 @@ impl TsdfVolume {
                             .map(|k| (i64::from(hi[k]) - i64::from(lo[k]) + 1) as u64)
                             .fold(1u64, u64::saturating_mul);
                         if span > limit as u64 {
-                            return None;
+                            return Err(None);
                         }
                         for bx in lo[0]..=hi[0] {
                             for by in lo[1]..=hi[1] {
@@ -687,15 +702,25 @@ impl TsdfVolume {
                             }
                         }
                         if set.len() > limit {
-                            return None;
+                            return Err(None);
                         }
                     }
-                    Some(set)
+                    Ok(set)
                 })
                 .collect();
             for set in touched_sets {
-                let set = set.ok_or_else(|| too_many(limit as u64 + 1))?;
-                touched.extend(set);
+                match set {
+                    Ok(set) => touched.extend(set),
+                    Err(None) => return Err(too_many(limit as u64 + 1)),
+                    Err(Some(p)) => {
+                        return Err(Error::invalid(format!(
+                            "a depth sample at ({:.3e}, {:.3e}, {:.3e}) lies beyond the \
+                             block indices the volume can address at voxel size {:e}: raise \
+                             the voxel size (or check the depth units and depth_trunc)",
+                            p.x, p.y, p.z, self.params.voxel
+                        )));
+                    }
+                }
             }
             touched.par_sort_unstable();
             touched.dedup();
