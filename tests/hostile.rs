@@ -8,17 +8,12 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{fails, run, succeeds};
+use common::{cameras_file, fails, mesh_file, run, s, succeeds, triangle};
 
 use glam::{DMat3, DVec3};
 use splatkit::io::any::save;
-use splatkit::io::cameras::write_gs_json;
 use splatkit::io::detect::FileFormat;
 use splatkit::model::{Camera, Mesh, PointCloud, Scene};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn camera(name: &str, w: u32, h: u32) -> Camera {
     Camera::pinhole(
@@ -34,22 +29,9 @@ fn camera(name: &str, w: u32, h: u32) -> Camera {
     )
 }
 
-/// A small mesh file in `dir`.
-fn mesh_file(dir: &Path) -> PathBuf {
-    let p = dir.join("mesh.ply");
-    let m = Mesh::new(
-        vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]],
-        vec![[0, 1, 2]],
-    );
-    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
-    p
-}
-
-/// A camera file holding `cams`.
-fn cameras_file(dir: &Path, name: &str, cams: &[Camera]) -> PathBuf {
-    let p = dir.join(name);
-    write_gs_json(&p, cams).unwrap();
-    p
+/// `mesh.ply` in `dir`: one [`triangle`].
+fn triangle_file(dir: &Path) -> PathBuf {
+    mesh_file(dir, "mesh.ply", triangle())
 }
 
 /// Image sizes from a camera file are checked before anything is allocated:
@@ -57,7 +39,7 @@ fn cameras_file(dir: &Path, name: &str, cams: &[Camera]) -> PathBuf {
 #[test]
 fn huge_image_sizes_from_camera_files() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let out_dir = dir.path().join("renders");
     for (w, h) in [(100_000, 100_000), (u32::MAX, u32::MAX), (u32::MAX, 1)] {
         let cams = cameras_file(dir.path(), "cameras.json", &[camera("a", w, h)]);
@@ -83,7 +65,7 @@ fn huge_image_sizes_from_camera_files() {
 #[test]
 fn unusable_cameras_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let out_dir = dir.path().join("renders");
     let mut nan_focal = camera("nanf", 64, 48);
     nan_focal.fx = f64::NAN;
@@ -191,7 +173,7 @@ fn unusable_cameras_are_refused() {
 #[test]
 fn thread_counts_are_bounded() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let out_path = dir.path().join("out.ply");
     for n in ["0", "2000", "100000"] {
         let out = run(
@@ -210,7 +192,7 @@ fn thread_counts_are_bounded() {
 #[test]
 fn orbit_counts_and_sizes_are_bounded() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let out_dir = dir.path().join("orbit");
     for n in ["4294967295", "100000", "0"] {
         let out = run(
@@ -310,7 +292,7 @@ fn stdin_is_read_once() {
 #[test]
 fn chamfer_numeric_flags_are_checked() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     for (flag, v) in [
         ("--max-dist", "0"),
         ("--max-dist", "-1"),
@@ -332,7 +314,7 @@ fn chamfer_numeric_flags_are_checked() {
 #[test]
 fn a_bad_report_path_leaves_the_output_alone() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let out_path = dir.path().join("out.ply");
     std::fs::write(&out_path, b"previous contents").unwrap();
     let missing = dir.path().join("missing_dir/r.json");
@@ -364,7 +346,7 @@ fn a_bad_report_path_leaves_the_output_alone() {
 #[test]
 fn render_compare_checks_ground_truth_first() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let cams = cameras_file(dir.path(), "cameras.json", &[camera("a", 32, 24)]);
     let out_dir = dir.path().join("renders");
     std::fs::create_dir_all(&out_dir).unwrap();
@@ -393,7 +375,7 @@ fn render_compare_checks_ground_truth_first() {
 #[test]
 fn numeric_flags_are_checked_at_parse_time() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let out_path = dir.path().join("out.ply");
     let cases: &[(&str, &str)] = &[
         ("poisson", "--point-weight=inf"),
@@ -544,7 +526,7 @@ fn sample_counts_are_estimated_and_bounded() {
     let dir = tempfile::tempdir().unwrap();
     let big = dir.path().join("big.ply");
     save(&big, &Scene::Mesh(big_triangle()), FileFormat::Ply).unwrap();
-    let small = mesh_file(dir.path());
+    let small = triangle_file(dir.path());
     for (args, side) in [
         (vec![s(&big), s(&small), "--sample", "dtu"], "prediction"),
         (vec![s(&small), s(&big), "--sample", "dtu"], "ground truth"),
@@ -610,7 +592,7 @@ fn png(path: &Path, w: usize, h: usize) {
 #[test]
 fn folder_outputs_are_all_or_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = mesh_file(dir.path());
+    let mesh = triangle_file(dir.path());
     let cams = cameras_file(
         dir.path(),
         "cameras.json",
@@ -762,7 +744,7 @@ fn gltf_relative_external_buffers_resolve() {
 #[test]
 fn chamfer_errors_name_the_side() {
     let dir = tempfile::tempdir().unwrap();
-    let good = mesh_file(dir.path());
+    let good = triangle_file(dir.path());
     let bad = dir.path().join("garbage.obj");
     std::fs::write(&bad, b"\x00\x01 not a mesh\n").unwrap();
     fails(

@@ -205,6 +205,21 @@ pub fn unit_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A hold-out period N (clap value parser): every N-th view is held out, 0
+/// holds out none; 1 would hold out every view and leave nothing, so it is
+/// refused at parse (exit 2).
+pub fn holdout_every(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a whole number"))?;
+    if n == 1 {
+        Err("1 would hold out every view: give 0 (none) or 2 or more".into())
+    } else {
+        Ok(n)
+    }
+}
+
 /// [`fraction_f64`] as f32.
 pub fn fraction_f32(s: &str) -> Result<f32, String> {
     fraction_f64(s).map(|v| v as f32)

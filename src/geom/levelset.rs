@@ -444,7 +444,12 @@ pub fn sample_levelset(
                         .into_iter()
                         .map(|i| i as u32)
                         .collect();
-                    (own[0] as usize, own.as_slice())
+                    // no neighbour (a non-finite depth from a corrupt
+                    // scene): this ray crosses no level
+                    let Some(&first) = own.first() else {
+                        return opts.levels.iter().map(|_| None).collect();
+                    };
+                    (first as usize, own.as_slice())
                 } else {
                     (hit as usize, field.neighbours(hit as usize))
                 };

@@ -67,13 +67,7 @@ pub fn read_input(path: &Path) -> Result<Input> {
         let v = read_stream("<stdin>", std::io::stdin().lock())?;
         return Ok(Input::from_bytes("<stdin>", v));
     }
-    transaction::note_input(path)?;
-    let name = path.display().to_string();
-    let file = File::open(path).map_err(|e| Error::io(&name, e))?;
-    let meta = file.metadata().map_err(|e| Error::io(&name, e))?;
-    if meta.is_dir() {
-        return Err(Error::format(&name, "is a directory, expected a file"));
-    }
+    let (name, file, meta) = open_input(path)?;
     if meta.is_file() && meta.len() > 0 {
         // SAFETY: the map is read-only and private to this process. Another
         // process truncating the file while we read it could fault; this is
@@ -92,11 +86,9 @@ pub fn read_input(path: &Path) -> Result<Input> {
     })
 }
 
-/// Reads a whole file into memory (a JSON file, a photo, optimiser state)
-/// with the same rules as [`read_input`]: recorded as an input of the run;
-/// a regular file larger than the memory budget is refused before it is
-/// read; anything else is read with [`read_stream`]'s cap.
-pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+/// Records `path` as an input of the run and opens it: its display name,
+/// the file and its metadata; a folder is an error.
+fn open_input(path: &Path) -> Result<(String, File, std::fs::Metadata)> {
     transaction::note_input(path)?;
     let name = path.display().to_string();
     let file = File::open(path).map_err(|e| Error::io(&name, e))?;
@@ -104,6 +96,15 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
     if meta.is_dir() {
         return Err(Error::format(&name, "is a directory, expected a file"));
     }
+    Ok((name, file, meta))
+}
+
+/// Reads a whole file into memory (a JSON file, a photo, optimiser state)
+/// with the same rules as [`read_input`]: recorded as an input of the run;
+/// a regular file larger than the memory budget is refused before it is
+/// read; anything else is read with [`read_stream`]'s cap.
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    let (name, file, meta) = open_input(path)?;
     if meta.is_file() && meta.len() > 0 {
         budget::check(
             &format!("{name}: reading its {} bytes", meta.len()),

@@ -635,22 +635,12 @@ fn apply(moves: &[Move]) -> Result<()> {
 /// (create-new, so it never opens an existing file), after cleaning the
 /// staging that killed runs left for this target.
 pub(crate) fn create_staging_file(target: &Path) -> Result<(PathBuf, std::fs::File)> {
-    let (dir, base) = split(target);
-    clean_leftovers(&dir, &base);
-    let pid = std::process::id();
-    for k in 0u32.. {
-        let p = dir.join(format!(".{base}.splatkit-{pid}-{k}.tmp"));
-        match std::fs::OpenOptions::new()
+    create_staging(target, ".tmp", |p| {
+        std::fs::OpenOptions::new()
             .write(true)
             .create_new(true)
-            .open(&p)
-        {
-            Ok(f) => return Ok((p, f)),
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
-            Err(e) => return Err(Error::io(dir.display(), e)),
-        }
-    }
-    unreachable!("a free staging name exists")
+            .open(p)
+    })
 }
 
 /// Proves that an output file can be staged next to `target`: creates a
@@ -667,21 +657,31 @@ pub fn probe_writable(target: &Path) -> Result<()> {
 }
 
 /// Creates a new staging folder `.NAME.splatkit-PID-K` next to `target`,
-/// after cleaning the leftovers of killed runs.
+/// after cleaning the leftovers of killed runs; files written in it are the
+/// run's work in progress (see [`State::in_staging`]).
 pub(crate) fn create_staging_dir(target: &Path) -> Result<PathBuf> {
+    let (p, ()) = create_staging(target, "", |p| std::fs::create_dir(p))?;
+    if let Some(state) = lock().as_mut() {
+        state.staging_dirs.push(p.clone());
+        state.staging_resolved.push(resolve(&p));
+    }
+    Ok(p)
+}
+
+/// The first free `.NAME.splatkit-PID-K{suffix}` next to `target` that
+/// `make` creates (it must fail with `AlreadyExists` on a taken name).
+fn create_staging<T>(
+    target: &Path,
+    suffix: &str,
+    make: impl Fn(&Path) -> std::io::Result<T>,
+) -> Result<(PathBuf, T)> {
     let (dir, base) = split(target);
     clean_leftovers(&dir, &base);
     let pid = std::process::id();
     for k in 0u32.. {
-        let p = dir.join(format!(".{base}.splatkit-{pid}-{k}"));
-        match std::fs::create_dir(&p) {
-            Ok(()) => {
-                if let Some(state) = lock().as_mut() {
-                    state.staging_dirs.push(p.clone());
-                    state.staging_resolved.push(resolve(&p));
-                }
-                return Ok(p);
-            }
+        let p = dir.join(format!(".{base}.splatkit-{pid}-{k}{suffix}"));
+        match make(&p) {
+            Ok(t) => return Ok((p, t)),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
             Err(e) => return Err(Error::io(dir.display(), e)),
         }

@@ -87,7 +87,7 @@ pub struct RefineArgs {
     pub white_background: bool,
     /// Hold out every N-th view (name order, from the first) for evaluation;
     /// 0 = none (1 would hold out all).
-    #[arg(long, default_value_t = 8, value_parser = holdout_every)]
+    #[arg(long, default_value_t = 8, value_parser = crate::cli::holdout_every)]
     pub test_every: usize,
     /// Evaluate the held-out views every N iterations (0: start and end only).
     #[arg(long, default_value_t = 500)]
@@ -126,21 +126,6 @@ fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
 /// image gradients (colour 12, alpha 4, depth 4, normal 12) and the normal
 /// consistency's depth-normal map (48).
 pub const REFINE_BYTES_PER_PIXEL: u64 = 64 + 384 + 32 + 48;
-
-/// A hold-out period N (clap value parser): every N-th view is held out, 0
-/// holds out none; 1 would hold out every view and leave nothing, so it is
-/// refused at parse (exit 2).
-fn holdout_every(s: &str) -> Result<usize, String> {
-    let n: usize = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("{s:?} is not a whole number"))?;
-    if n == 1 {
-        Err("1 would hold out every view: give 0 (none) or 2 or more".into())
-    } else {
-        Ok(n)
-    }
-}
 
 /// Refuses a view whose mask has no object pixel: its loss and its
 /// PSNR / SSIM would be taken over 0 pixels (`null` and 1.0), so the run

@@ -432,7 +432,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (Some(p), _) => {
             read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?
         }
-        (None, Some(spec)) => orbit_rings(&scene.points(), spec)?,
+        (None, Some(spec)) => orbit_rings(&scene.points(), spec).with_context(|| {
+            format!(
+                "{}: no usable --orbit around this scene (check its coordinates, or give --radius \
+                 or --cameras)",
+                shown(&args.scene, false)
+            )
+        })?,
         (None, None) => unreachable!("an orbit is made when no camera file is given"),
     };
     for c in &cams {

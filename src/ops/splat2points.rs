@@ -99,7 +99,7 @@ pub struct Splat2PointsArgs {
     pub min_opacity: f32,
     /// Hold out every N-th camera (name-sorted, from the first) as 3DGS's
     /// test split does; 0 keeps all (1 would hold out all).
-    #[arg(long, default_value_t = 8, value_parser = holdout_every)]
+    #[arg(long, default_value_t = 8, value_parser = crate::cli::holdout_every)]
     pub every_nth_test: usize,
     /// Use every camera (same as --every-nth-test 0).
     #[arg(long)]
@@ -122,21 +122,6 @@ pub struct Splat2PointsArgs {
     pub orbit: OrbitArgs,
     #[command(flatten)]
     pub common: Common,
-}
-
-/// A hold-out period N (clap value parser): every N-th view is held out, 0
-/// holds out none; 1 would hold out every view and leave nothing, so it is
-/// refused at parse (exit 2).
-fn holdout_every(s: &str) -> Result<usize, String> {
-    let n: usize = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("{s:?} is not a whole number"))?;
-    if n == 1 {
-        Err("1 would hold out every view: give 0 (none) or 2 or more".into())
-    } else {
-        Ok(n)
-    }
 }
 
 /// A density level λ: a number strictly between 0 and 1 (the density is
@@ -298,7 +283,13 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
         }
         (None, Some(_)) => {
             let spec = orbit.as_ref().expect("checked above");
-            let cams = orbit_rings(&g.means, spec)?;
+            let cams = orbit_rings(&g.means, spec).with_context(|| {
+                format!(
+                    "{}: no usable --orbit around this scene (check its coordinates, or give \
+                     --radius or --cameras)",
+                    shown(&args.scene, false)
+                )
+            })?;
             let n_all = cams.len();
             (cams, n_all, format!("orbit ({n_all} views)"))
         }

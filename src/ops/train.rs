@@ -120,7 +120,7 @@ pub struct DataArgs {
     pub random_background: bool,
     /// Hold out every N-th view (camera order, from the first); 0 = none
     /// (1 would hold out all).
-    #[arg(long, default_value_t = 8, value_parser = holdout_every)]
+    #[arg(long, default_value_t = 8, value_parser = crate::cli::holdout_every)]
     pub test_every: usize,
     /// Evaluate the held-out views every N iterations (0: start and end).
     #[arg(long, default_value_t = 1000)]
@@ -141,21 +141,6 @@ pub struct DataArgs {
     pub seed: u64,
     #[command(flatten)]
     pub common: Common,
-}
-
-/// A hold-out period N (clap value parser): every N-th view is held out, 0
-/// holds out none; 1 would hold out every view and leave nothing, so it is
-/// refused at parse (exit 2).
-fn holdout_every(s: &str) -> Result<usize, String> {
-    let n: usize = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("{s:?} is not a whole number"))?;
-    if n == 1 {
-        Err("1 would hold out every view: give 0 (none) or 2 or more".into())
-    } else {
-        Ok(n)
-    }
 }
 
 /// `train triangles`.

@@ -8,20 +8,14 @@
 
 use std::path::{Path, PathBuf};
 
-use super::common::{fails, run, succeeds};
+use super::common::{cameras_file, fails, mesh_file, run, s, snapshot, succeeds};
 
 use glam::{DMat3, DVec3};
 use splatkit::geom::synthetic::Torus;
-use splatkit::io::any::save;
 use splatkit::io::cameras::write_gs_json;
-use splatkit::io::detect::FileFormat;
 use splatkit::io::ply::{Format, gaussians::write_gaussians};
-use splatkit::model::{Camera, Mesh, Scene};
+use splatkit::model::Camera;
 use splatkit::testing::{cameras_around, uv_sphere, write_sphere_dataset};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// A pinhole camera `w`×`h` at z = −4 looking down +z at the origin.
 fn camera(name: &str, w: u32, h: u32) -> Camera {
@@ -38,13 +32,6 @@ fn camera(name: &str, w: u32, h: u32) -> Camera {
     )
 }
 
-/// A mesh file `name` holding `m`.
-fn mesh_file(dir: &Path, name: &str, m: Mesh) -> PathBuf {
-    let p = dir.join(name);
-    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
-    p
-}
-
 /// A small Gaussian torus file.
 fn gaussians_file(dir: &Path) -> PathBuf {
     let p = dir.join("gaussians.ply");
@@ -57,31 +44,6 @@ fn gaussians_file(dir: &Path) -> PathBuf {
     write_gaussians(&mut b, &g, Format::BinaryLittleEndian).unwrap();
     std::fs::write(&p, b).unwrap();
     p
-}
-
-/// A camera file holding `cams`.
-fn cameras_file(dir: &Path, name: &str, cams: &[Camera]) -> PathBuf {
-    let p = dir.join(name);
-    write_gs_json(&p, cams).unwrap();
-    p
-}
-
-/// Every file under `dir` with its bytes, sorted (inputs and outputs alike).
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push((p.clone(), std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
 }
 
 /// Runs `bin` with `args`, expects the refusal (`code`, `needles`, and

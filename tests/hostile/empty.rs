@@ -4,9 +4,10 @@
 //! `--allow-empty` (clean, prune-triangles, export-off, poisson) writes the
 //! empty file instead. Metrics over zero pixels are refused up front.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::common::{fails, run, succeeds};
+use super::common::{cameras_file, fails, mesh_file, run, s, snapshot, succeeds};
 
 use splatkit::io::any::save;
 use splatkit::io::cameras::write_gs_json;
@@ -17,37 +18,10 @@ use splatkit::testing::{cameras_around, uv_sphere, write_sphere_dataset};
 /// What an output held before a run that must leave it alone.
 const BEFORE: &[u8] = b"previous contents";
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Every file under `paths` (recursively), with its bytes.
-fn snapshot(paths: &[&Path]) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut todo: Vec<PathBuf> = paths.iter().map(|p| p.to_path_buf()).collect();
-    while let Some(p) = todo.pop() {
-        if p.is_dir() {
-            for e in std::fs::read_dir(&p).unwrap() {
-                todo.push(e.unwrap().path());
-            }
-        } else if p.is_file() {
-            out.push((p.clone(), std::fs::read(&p).unwrap()));
-        }
-    }
-    out.sort();
-    out
-}
-
 /// An output file holding [`BEFORE`].
 fn existing(dir: &Path, name: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, BEFORE).unwrap();
-    p
-}
-
-fn mesh_file(dir: &Path, name: &str, m: Mesh) -> PathBuf {
-    let p = dir.join(name);
-    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
     p
 }
 
@@ -110,10 +84,10 @@ fn soup_file(dir: &Path) -> PathBuf {
     p
 }
 
-/// Asserts `out` is the only change: every other file is as in `before`
-/// and each of `outputs` still holds [`BEFORE`].
-fn untouched(before: &[(PathBuf, Vec<u8>)], roots: &[&Path], outputs: &[&Path]) {
-    assert_eq!(snapshot(roots), before, "an input or output changed");
+/// Asserts that nothing under `dir` changed since `before` and that each
+/// of `outputs` still holds [`BEFORE`].
+fn untouched(before: &BTreeMap<PathBuf, Vec<u8>>, dir: &Path, outputs: &[&Path]) {
+    assert_eq!(&snapshot(dir), before, "an input or output changed");
     for o in outputs {
         assert_eq!(
             std::fs::read(o).unwrap(),
@@ -149,7 +123,7 @@ fn clean_to_no_faces() {
     );
     let tet = mesh_file(d, "tet.ply", tetrahedron());
     let out = existing(d, "out.ply");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let cases: &[(&Path, &[&str], &[&str])] = &[
         (&degen, &[], &["degen.ply", "degenerate", "--allow-empty"]),
         (
@@ -170,7 +144,7 @@ fn clean_to_no_faces() {
         a.extend(extra.iter());
         // exit 1: the output would hold no face, so nothing is written
         fails(&run("clean", &a, None), 1, needles);
-        untouched(&before, &[d], &[&out]);
+        untouched(&before, d, &[&out]);
     }
     // --allow-empty: the empty mesh is what the caller asked for
     let out = run(
@@ -195,7 +169,7 @@ fn decimate_to_nothing() {
     let d = dir.path();
     let tet = mesh_file(d, "tet.ply", tetrahedron());
     let out = existing(d, "out.ply");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     for (flag, v) in [
         ("--faces", "0"),
         ("--vertices", "0"),
@@ -205,7 +179,7 @@ fn decimate_to_nothing() {
         let o = run("decimate", &[s(&tet), flag, v, "-o", s(&out)], None);
         // the target itself asks for an empty mesh
         fails(&o, 1, &[&format!("{flag} {v}"), "empty"]);
-        untouched(&before, &[d], &[&out]);
+        untouched(&before, d, &[&out]);
     }
 }
 
@@ -219,7 +193,7 @@ fn prune_and_export_of_no_triangles() {
     let soup = soup_file(d);
     let out = existing(d, "out.ply");
     let off = existing(d, "out.off");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     for (extra, needles) in [
         (
             vec!["--min-opacity", "0.5"],
@@ -234,7 +208,7 @@ fn prune_and_export_of_no_triangles() {
         a.extend(extra);
         // every triangle is below the threshold: nothing would be kept
         fails(&run("prune-triangles", &a, None), 1, &needles);
-        untouched(&before, &[d], &[&out, &off]);
+        untouched(&before, d, &[&out, &off]);
     }
     let empty = d.join("empty.ply");
     succeeds(&run(
@@ -249,14 +223,14 @@ fn prune_and_export_of_no_triangles() {
         ],
         None,
     ));
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     // the empty soup, exported: no triangle to write
     fails(
         &run("export-off", &[s(&empty), "-o", s(&off)], None),
         1,
         &["empty.ply", "no triangles", "--allow-empty"],
     );
-    untouched(&before, &[d], &[&out, &off]);
+    untouched(&before, d, &[&out, &off]);
     let empty_off = d.join("empty.off");
     succeeds(&run(
         "export-off",
@@ -275,12 +249,11 @@ fn render_of_no_primitives() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let g = gaussians_file(d, "none.ply", gaussians(0));
-    let cams = d.join("cameras.json");
-    write_gs_json(&cams, &cameras_around(2, 4.0, 16, 20.0)).unwrap();
+    let cams = cameras_file(d, "cameras.json", &cameras_around(2, 4.0, 16, 20.0));
     let out_dir = d.join("renders");
     std::fs::create_dir_all(&out_dir).unwrap();
     let old = existing(&out_dir, "v00.png");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let o = run(
         "render",
         &[s(&g), "--cameras", s(&cams), "-o", s(&out_dir)],
@@ -288,7 +261,7 @@ fn render_of_no_primitives() {
     );
     // background-only pictures are not a render of the scene
     fails(&o, 1, &["none.ply", "no gaussians"]);
-    untouched(&before, &[d], &[&old]);
+    untouched(&before, d, &[&old]);
 }
 
 /// `tsdf-fuse` of a scene with no primitive names the file (it used to
@@ -298,10 +271,9 @@ fn fusion_of_no_primitives() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let g = gaussians_file(d, "none.ply", gaussians(0));
-    let cams = d.join("cameras.json");
-    write_gs_json(&cams, &cameras_around(2, 4.0, 16, 20.0)).unwrap();
+    let cams = cameras_file(d, "cameras.json", &cameras_around(2, 4.0, 16, 20.0));
     let out = existing(d, "fused.ply");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let o = run(
         "tsdf-fuse",
         &[s(&g), "--cameras", s(&cams), "-o", s(&out)],
@@ -309,7 +281,7 @@ fn fusion_of_no_primitives() {
     );
     // no depth can come from nothing
     fails(&o, 1, &["none.ply", "no primitives"]);
-    untouched(&before, &[d], &[&out]);
+    untouched(&before, d, &[&out]);
 }
 
 /// `poisson --trim` above every density leaves no face: exit 1 naming
@@ -336,7 +308,7 @@ fn poisson_trimmed_to_nothing() {
     let pts = d.join("pts.ply");
     save(&pts, &Scene::PointCloud(pc), FileFormat::Ply).unwrap();
     let out = existing(d, "mesh.ply");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let o = run(
         "poisson",
         &[s(&pts), "--depth", "5", "--trim", "1e30", "-o", s(&out)],
@@ -344,7 +316,7 @@ fn poisson_trimmed_to_nothing() {
     );
     // the density threshold removes every face
     fails(&o, 1, &["pts.ply", "--trim 1e30", "--allow-empty"]);
-    untouched(&before, &[d], &[&out]);
+    untouched(&before, d, &[&out]);
     let empty = d.join("empty.ply");
     succeeds(&run(
         "poisson",
@@ -371,12 +343,11 @@ fn bake_texture_from_no_gaussians() {
     let d = dir.path();
     let mesh = mesh_file(d, "tet.ply", tetrahedron());
     let g = gaussians_file(d, "none.ply", gaussians(0));
-    let cams = d.join("cameras.json");
-    write_gs_json(&cams, &cameras_around(2, 4.0, 16, 20.0)).unwrap();
+    let cams = cameras_file(d, "cameras.json", &cameras_around(2, 4.0, 16, 20.0));
     let obj = existing(d, "t.obj");
     let mtl = existing(d, "t.mtl");
     let png = existing(d, "t.png");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let o = run(
         "bake-texture",
         &[s(&mesh), s(&g), "--cameras", s(&cams), "-o", s(&obj)],
@@ -384,7 +355,7 @@ fn bake_texture_from_no_gaussians() {
     );
     // "91.2 % seen" from nothing was the old answer
     fails(&o, 1, &["none.ply", "no Gaussians"]);
-    untouched(&before, &[d], &[&obj, &mtl, &png]);
+    untouched(&before, d, &[&obj, &mtl, &png]);
 }
 
 /// `splat2points` from a file of 0 Gaussians makes no point: exit 1 naming
@@ -394,11 +365,10 @@ fn bake_texture_from_no_gaussians() {
 fn splat2points_with_no_points() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let cams = d.join("cameras.json");
-    write_gs_json(&cams, &cameras_around(3, 4.0, 24, 30.0)).unwrap();
+    let cams = cameras_file(d, "cameras.json", &cameras_around(3, 4.0, 24, 30.0));
     let none = gaussians_file(d, "none.ply", gaussians(0));
     let out = existing(d, "points.ply");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let a = [
         s(&none),
         "--cameras",
@@ -413,7 +383,7 @@ fn splat2points_with_no_points() {
         1,
         &["none.ply", "--min-opacity"],
     );
-    untouched(&before, &[d], &[&out]);
+    untouched(&before, d, &[&out]);
 }
 
 /// `train triangles --max-shapes 0` is refused at parse (exit 2); a cap
@@ -425,7 +395,7 @@ fn train_max_shapes_means_what_it_says() {
     let data = dir.path().join("data");
     write_sphere_dataset(&data, 4, 16, 50).unwrap();
     let out = dir.path().join("out");
-    let before = snapshot(&[dir.path()]);
+    let before = snapshot(dir.path());
     for (v, code, needles) in [
         ("0", 2, vec!["--max-shapes"]),
         (
@@ -450,7 +420,7 @@ fn train_max_shapes_means_what_it_says() {
             None,
         );
         fails(&o, code, &needles);
-        assert_eq!(snapshot(&[dir.path()]), before, "nothing written");
+        assert_eq!(snapshot(dir.path()), before, "nothing written");
         assert!(!out.exists());
     }
 }
@@ -481,7 +451,7 @@ fn metrics_over_zero_pixels() {
     write_sphere_dataset(&data, 4, 16, 50).unwrap();
     let masks = zero_masks(&data, 16);
     let out = d.join("out");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let o = run(
         "train",
         &[
@@ -497,7 +467,7 @@ fn metrics_over_zero_pixels() {
     );
     // every view's loss and metric would be over 0 pixels
     fails(&o, 1, &["mask", "no object pixel"]);
-    assert_eq!(snapshot(&[d]), before);
+    assert_eq!(snapshot(d), before);
     assert!(!out.exists());
 
     // refine: a bound file from a small sphere
@@ -506,7 +476,7 @@ fn metrics_over_zero_pixels() {
     succeeds(&run("bind-gaussians", &[s(&mesh), "-o", s(&bound)], None));
     let cams = data.join("cameras.json");
     let images = data.join("images");
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let base = [
         s(&bound),
         "--images",
@@ -522,7 +492,7 @@ fn metrics_over_zero_pixels() {
     let mut a = base.to_vec();
     a.extend(["--masks", s(&masks)]);
     fails(&run("refine", &a, None), 1, &["--masks", "no object pixel"]);
-    assert_eq!(snapshot(&[d]), before);
+    assert_eq!(snapshot(d), before);
     // 16x16 cameras at --resolution 1 are 1x1: fine; a 16x8 camera is not
     let wide = d.join("wide.json");
     let mut cs = cameras_around(4, 3.5, 16, 20.0);
@@ -531,7 +501,7 @@ fn metrics_over_zero_pixels() {
         c.cy = 4.0;
     }
     write_gs_json(&wide, &cs).unwrap();
-    let before = snapshot(&[d]);
+    let before = snapshot(d);
     let mut a = base.to_vec();
     a[4] = s(&wide);
     a.extend(["--resolution", "1"]);
@@ -540,7 +510,7 @@ fn metrics_over_zero_pixels() {
         2,
         &["wide.json", "--resolution 1", "no pixels"],
     );
-    assert_eq!(snapshot(&[d]), before);
+    assert_eq!(snapshot(d), before);
     assert!(!out.exists());
 }
 

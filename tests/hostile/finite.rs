@@ -9,7 +9,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::common::{fails, run, succeeds};
+use super::common::{fails, run, s, snapshot, succeeds};
 
 use splatkit::geom::binding::{BindOptions, bind, to_raster};
 use splatkit::io::any::{load_gaussians, load_soup, save, save_gaussians, save_soup};
@@ -21,28 +21,8 @@ use splatkit::ops::bind_gaussians::save_bound;
 use splatkit::testing::{cameras_around, uv_sphere, write_sphere_dataset};
 use splatkit_render::gaussian::{RasterSettings, render};
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Every file under `dir` with its bytes (folders by their files).
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut todo = vec![dir.to_path_buf()];
-    while let Some(d) = todo.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                todo.push(p);
-            } else {
-                out.insert(p.clone(), std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
-}
-
-/// Asserts that `dir` holds exactly the files of `before`, byte for byte.
+/// Asserts that `dir` holds exactly the files, folders and links of
+/// `before`, byte for byte.
 fn unchanged(dir: &Path, before: &BTreeMap<PathBuf, Vec<u8>>, case: &str) {
     let after = snapshot(dir);
     let names = |m: &BTreeMap<PathBuf, Vec<u8>>| m.keys().cloned().collect::<Vec<_>>();
@@ -392,6 +372,18 @@ fn poke(file: &Path, at: usize, count: usize, x: f32) {
     std::fs::write(file, b).unwrap();
 }
 
+/// Sets every first moment of optimizer group `group` in the checkpoint of
+/// the output folder `out` to `x`.
+fn first_moments_to(out: &Path, group: &str, x: f32) {
+    let opt = out.join("checkpoint/optimizer.bin");
+    let b = std::fs::read(&opt).unwrap();
+    let (_, m0, n) = groups(&b)
+        .into_iter()
+        .find(|g| g.0 == group)
+        .unwrap_or_else(|| panic!("no {group} group"));
+    poke(&opt, m0, n, x);
+}
+
 /// A small DATA folder: 6 views of the textured sphere at 24² with 150
 /// seed points.
 fn dataset(dir: &Path) -> PathBuf {
@@ -421,6 +413,57 @@ fn train(model: &str, data: &Path, out: &Path, extra: &[&str]) -> std::process::
     run("train", &a, None)
 }
 
+/// `refine --resume OUT -o OUT --iterations ITERATIONS`.
+fn resume_refine(sc: &RefineScene, out: &Path, iterations: &str) -> std::process::Output {
+    refine(
+        sc,
+        &sc.bound,
+        None,
+        out,
+        &["--iterations", iterations, "--resume", s(out)],
+    )
+}
+
+/// `train MODEL DATA -o OUT --resume OUT`.
+fn resume_train(model: &str, data: &Path, out: &Path) -> std::process::Output {
+    train(model, data, out, &["--resume", s(out)])
+}
+
+/// A refine scene and a DATA folder in `dir`, and three output folders
+/// stopped after 2 iterations with their checkpoints: `refined` (refine),
+/// `tri` (train triangles) and `gau` (train gaussians).
+struct Checkpoints {
+    sc: RefineScene,
+    data: PathBuf,
+    refined: PathBuf,
+    tri: PathBuf,
+    gau: PathBuf,
+}
+
+fn checkpoints(dir: &Path) -> Checkpoints {
+    let sc = refine_scene(dir);
+    let data = dataset(dir);
+    let refined = dir.join("refined");
+    succeeds(&refine(
+        &sc,
+        &sc.bound,
+        None,
+        &refined,
+        &["--iterations", "2"],
+    ));
+    let tri = dir.join("tri");
+    succeeds(&train("triangles", &data, &tri, &["--stop-at", "2"]));
+    let gau = dir.join("gau");
+    succeeds(&train("gaussians", &data, &gau, &["--stop-at", "2"]));
+    Checkpoints {
+        sc,
+        data,
+        refined,
+        tri,
+        gau,
+    }
+}
+
 /// The example: 4 NaN floats in `optimizer.bin` for `--resume`
 /// (refine, train gaussians, train triangles), and variants: +inf in a
 /// second moment, a negative second moment. Refused naming the file, the
@@ -429,36 +472,17 @@ fn train(model: &str, data: &Path, out: &Path, extra: &[&str]) -> std::process::
 #[test]
 fn optimizer_state_not_finite() {
     let dir = tempfile::tempdir().unwrap();
-    let sc = refine_scene(dir.path());
-    let data = dataset(dir.path());
-    let ref_out = dir.path().join("refined");
-    succeeds(&refine(
-        &sc,
-        &sc.bound,
-        None,
-        &ref_out,
-        &["--iterations", "2"],
-    ));
-    let tri = dir.path().join("tri");
-    succeeds(&train("triangles", &data, &tri, &["--stop-at", "2"]));
-    let gau = dir.path().join("gau");
-    succeeds(&train("gaussians", &data, &gau, &["--stop-at", "2"]));
+    let Checkpoints {
+        sc,
+        data,
+        refined,
+        tri,
+        gau,
+    } = checkpoints(dir.path());
     let runs: [(&Path, &dyn Fn() -> std::process::Output); 3] = [
-        (&ref_out, &|| {
-            refine(
-                &sc,
-                &sc.bound,
-                None,
-                &ref_out,
-                &["--iterations", "4", "--resume", s(&ref_out)],
-            )
-        }),
-        (&tri, &|| {
-            train("triangles", &data, &tri, &["--resume", s(&tri)])
-        }),
-        (&gau, &|| {
-            train("gaussians", &data, &gau, &["--resume", s(&gau)])
-        }),
+        (&refined, &|| resume_refine(&sc, &refined, "4")),
+        (&tri, &|| resume_train("triangles", &data, &tri)),
+        (&gau, &|| resume_train("gaussians", &data, &gau)),
     ];
     for (ck_dir, resume) in runs {
         let opt = ck_dir.join("checkpoint/optimizer.bin");
@@ -505,20 +529,13 @@ fn optimizer_state_not_finite() {
 #[test]
 fn resumed_models_not_finite() {
     let dir = tempfile::tempdir().unwrap();
-    let sc = refine_scene(dir.path());
-    let data = dataset(dir.path());
-    let ref_out = dir.path().join("refined");
-    succeeds(&refine(
-        &sc,
-        &sc.bound,
-        None,
-        &ref_out,
-        &["--iterations", "2"],
-    ));
-    let tri = dir.path().join("tri");
-    succeeds(&train("triangles", &data, &tri, &["--stop-at", "2"]));
-    let gau = dir.path().join("gau");
-    succeeds(&train("gaussians", &data, &gau, &["--stop-at", "2"]));
+    let Checkpoints {
+        sc,
+        data,
+        refined,
+        tri,
+        gau,
+    } = checkpoints(dir.path());
     edit_gaussians(&gau.join("checkpoint/model.ply"), |g| {
         g.log_scales[4][1] = f32::NAN
     });
@@ -526,11 +543,11 @@ fn resumed_models_not_finite() {
     let mut soup = load_soup(&model, "test").unwrap();
     soup.triangles[6][2][0] = f32::INFINITY;
     save_soup(&model, &soup, FileFormat::Ply).unwrap();
-    edit_gaussians(&ref_out.join("checkpoint/model.ply"), |g| {
+    edit_gaussians(&refined.join("checkpoint/model.ply"), |g| {
         column(g, "vertex", "bary_1")[0] = f32::NAN
     });
     let before = snapshot(dir.path());
-    let o = train("gaussians", &data, &gau, &["--resume", s(&gau)]);
+    let o = resume_train("gaussians", &data, &gau);
     fails(
         &o,
         1,
@@ -539,7 +556,7 @@ fn resumed_models_not_finite() {
             "Gaussian 4 has scale_1 = NaN, not a finite number",
         ],
     );
-    let o = train("triangles", &data, &tri, &["--resume", s(&tri)]);
+    let o = resume_train("triangles", &data, &tri);
     fails(
         &o,
         1,
@@ -548,13 +565,7 @@ fn resumed_models_not_finite() {
             "triangle 6 has vertex 2 x = inf, not a finite number",
         ],
     );
-    let o = refine(
-        &sc,
-        &sc.bound,
-        None,
-        &ref_out,
-        &["--iterations", "4", "--resume", s(&ref_out)],
-    );
+    let o = resume_refine(&sc, &refined, "4");
     fails(
         &o,
         1,
@@ -576,38 +587,19 @@ fn resumed_models_not_finite() {
 #[test]
 fn loss_becomes_non_finite_mid_training() {
     let dir = tempfile::tempdir().unwrap();
-    let sc = refine_scene(dir.path());
-    let data = dataset(dir.path());
-    let ref_out = dir.path().join("refined");
-    succeeds(&refine(
-        &sc,
-        &sc.bound,
-        None,
-        &ref_out,
-        &["--iterations", "2"],
-    ));
-    let tri = dir.path().join("tri");
-    succeeds(&train("triangles", &data, &tri, &["--stop-at", "2"]));
-    let gau = dir.path().join("gau");
-    succeeds(&train("gaussians", &data, &gau, &["--stop-at", "2"]));
-    for ck_dir in [&ref_out, &tri, &gau] {
-        let opt = ck_dir.join("checkpoint/optimizer.bin");
-        let b = std::fs::read(&opt).unwrap();
-        let (_, m0, n) = groups(&b)
-            .into_iter()
-            .find(|g| g.0 == "sh_dc")
-            .expect("an sh_dc group");
-        poke(&opt, m0, n, -3e38);
+    let Checkpoints {
+        sc,
+        data,
+        refined,
+        tri,
+        gau,
+    } = checkpoints(dir.path());
+    for ck_dir in [&refined, &tri, &gau] {
+        first_moments_to(ck_dir, "sh_dc", -3e38);
     }
     let before = snapshot(dir.path());
     let tail = "the output folder and any earlier checkpoint are left as they were";
-    let o = refine(
-        &sc,
-        &sc.bound,
-        None,
-        &ref_out,
-        &["--iterations", "6", "--resume", s(&ref_out)],
-    );
+    let o = resume_refine(&sc, &refined, "6");
     fails(
         &o,
         1,
@@ -617,7 +609,7 @@ fn loss_becomes_non_finite_mid_training() {
             tail,
         ],
     );
-    let o = train("triangles", &data, &tri, &["--resume", s(&tri)]);
+    let o = resume_train("triangles", &data, &tri);
     fails(
         &o,
         1,
@@ -627,7 +619,7 @@ fn loss_becomes_non_finite_mid_training() {
             tail,
         ],
     );
-    let o = train("gaussians", &data, &gau, &["--resume", s(&gau)]);
+    let o = resume_train("gaussians", &data, &gau);
     fails(
         &o,
         1,
@@ -652,21 +644,9 @@ fn parameter_becomes_non_finite_with_a_finite_loss() {
     let sc = refine_scene(dir.path());
     let out = dir.path().join("refined");
     succeeds(&refine(&sc, &sc.bound, None, &out, &["--iterations", "2"]));
-    let opt = out.join("checkpoint/optimizer.bin");
-    let b = std::fs::read(&opt).unwrap();
-    let (_, m0, n) = groups(&b)
-        .into_iter()
-        .find(|g| g.0 == "complex")
-        .expect("a complex group");
-    poke(&opt, m0, n, -3e38);
+    first_moments_to(&out, "complex", -3e38);
     let before = snapshot(dir.path());
-    let o = refine(
-        &sc,
-        &sc.bound,
-        None,
-        &out,
-        &["--iterations", "6", "--resume", s(&out)],
-    );
+    let o = resume_refine(&sc, &out, "6");
     fails(
         &o,
         1,

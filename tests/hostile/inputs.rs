@@ -4,51 +4,8 @@
 //! refused with exit 2 naming both, before any work; every file is as it
 //! was afterwards.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-
-use super::common::{fails, run, succeeds};
-use splatkit::io::any::save;
-use splatkit::io::detect::FileFormat;
-use splatkit::model::{Mesh, Scene};
+use super::common::{fails, run, s, snapshot, succeeds, unit_triangle_file};
 use splatkit::testing::write_sphere_dataset;
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Every file under `dir` (relative path → bytes).
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            let meta = std::fs::symlink_metadata(&p).unwrap();
-            let key = p.strip_prefix(dir).unwrap().to_path_buf();
-            if meta.is_dir() {
-                out.insert(key, b"<dir>".to_vec());
-                stack.push(p);
-            } else if meta.file_type().is_symlink() {
-                let t = std::fs::read_link(&p).unwrap();
-                out.insert(key, format!("-> {}", t.display()).into_bytes());
-            } else {
-                out.insert(key, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
-}
-
-fn mesh(dir: &Path) -> PathBuf {
-    let p = dir.join("m.ply");
-    let m = Mesh::new(
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        vec![[0, 1, 2]],
-    );
-    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
-    p
-}
 
 /// `-o` or `--json=` naming the input, a symlink to it, a hard link to it,
 /// or the same file by another spelling (`./sub/../m.ply`): exit 2, the
@@ -56,7 +13,7 @@ fn mesh(dir: &Path) -> PathBuf {
 #[test]
 fn an_output_that_is_an_input_file_is_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let m = mesh(dir.path());
+    let m = unit_triangle_file(dir.path());
     std::fs::create_dir(dir.path().join("sub")).unwrap();
     let link = dir.path().join("link.ply");
     std::os::unix::fs::symlink(&m, &link).unwrap();
@@ -96,7 +53,7 @@ fn an_output_that_is_an_input_file_is_refused() {
 #[test]
 fn outputs_in_or_over_input_folders_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let m = mesh(dir.path());
+    let m = unit_triangle_file(dir.path());
     let t_png = dir.path().join("t.png");
     std::fs::copy(&m, &t_png).unwrap();
     let cams = dir.path().join("c.json");
@@ -196,7 +153,7 @@ fn resume_into_the_same_folder_still_works() {
 #[test]
 fn stdin_and_unread_inputs_are_protected() {
     let dir = tempfile::tempdir().unwrap();
-    let m = mesh(dir.path());
+    let m = unit_triangle_file(dir.path());
     let cams = dir.path().join("cams.json");
     std::fs::write(&cams, b"[]").unwrap();
     let before = snapshot(dir.path());

@@ -3,49 +3,12 @@
 //! whose value has no meaning is refused when parsed (exit 2), before any
 //! input is read or output written.
 
-use std::path::{Path, PathBuf};
-
-use super::common::{fails, run};
+use super::common::{cameras_file, fails, mesh_file, run, s, snapshot, triangle};
 
 use splatkit::io::any::save;
-use splatkit::io::cameras::write_gs_json;
 use splatkit::io::detect::FileFormat;
 use splatkit::model::{Gaussians, Mesh, PointCloud, Scene};
 use splatkit::testing::{cameras_around, write_sphere_dataset};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Every file under `root` (recursively), with its bytes.
-fn snapshot(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut todo = vec![root.to_path_buf()];
-    while let Some(p) = todo.pop() {
-        if p.is_dir() {
-            for e in std::fs::read_dir(&p).unwrap() {
-                todo.push(e.unwrap().path());
-            }
-        } else {
-            out.push((p.clone(), std::fs::read(&p).unwrap()));
-        }
-    }
-    out.sort();
-    out
-}
-
-fn mesh_file(dir: &Path, name: &str, m: Mesh) -> PathBuf {
-    let p = dir.join(name);
-    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
-    p
-}
-
-fn triangle() -> Mesh {
-    Mesh::new(
-        vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]],
-        vec![[0, 1, 2]],
-    )
-}
 
 /// A mesh whose only face has zero area (collinear corners).
 fn flat() -> Mesh {
@@ -77,8 +40,7 @@ fn chamfer_zero_area_names_file_and_side() {
 fn splat2points_no_crossing_names_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let cams = d.join("cameras.json");
-    write_gs_json(&cams, &cameras_around(3, 4.0, 24, 30.0)).unwrap();
+    let cams = cameras_file(d, "cameras.json", &cameras_around(3, 4.0, 24, 30.0));
     // one Gaussian of opacity 0.51: its density never reaches 0.9
     let g = Gaussians {
         means: vec![[0.0; 3]],
@@ -174,99 +136,64 @@ fn bad_flag_values_fail_at_parse() {
     let d = dir.path();
     let out = d.join("out");
     let o = s(&out);
-    let cases: &[(&str, &[&str], &str)] = &[
-        ("decimate", &["m.ply", "--ratio", "NaN"], "--ratio"),
-        ("decimate", &["m.ply", "--ratio", "1.5"], "--ratio"),
-        ("decimate", &["m.ply", "--ratio=-0.5"], "--ratio"),
-        ("poisson", &["p.ply", "--depth", "30"], "--depth"),
-        ("poisson", &["p.ply", "--depth", "1"], "--depth"),
-        ("poisson", &["p.ply", "--full-depth", "17"], "--full-depth"),
-        ("poisson", &["p.ply", "--bbox", "1,2,3"], "--bbox"),
-        ("poisson", &["p.ply", "--bbox=0,0,0,-1,1,1"], "--bbox"),
-        ("poisson", &["p.ply", "--bbox", "0,0,0,nan,1,1"], "--bbox"),
+    // (command, its arguments split at spaces, the flag named)
+    let cases = [
+        ("decimate", "m.ply --ratio NaN", "--ratio"),
+        ("decimate", "m.ply --ratio 1.5", "--ratio"),
+        ("decimate", "m.ply --ratio=-0.5", "--ratio"),
+        ("poisson", "p.ply --depth 30", "--depth"),
+        ("poisson", "p.ply --depth 1", "--depth"),
+        ("poisson", "p.ply --full-depth 17", "--full-depth"),
+        ("poisson", "p.ply --bbox 1,2,3", "--bbox"),
+        ("poisson", "p.ply --bbox=0,0,0,-1,1,1", "--bbox"),
+        ("poisson", "p.ply --bbox 0,0,0,nan,1,1", "--bbox"),
         (
             "clean",
-            &["m.ply", "--min-component-area", "nan"],
+            "m.ply --min-component-area nan",
             "--min-component-area",
         ),
         (
             "clean",
-            &["m.ply", "--min-component-area", "2"],
+            "m.ply --min-component-area 2",
             "--min-component-area",
         ),
         (
             "prune-triangles",
-            &["s.ply", "--min-opacity", "1.5"],
+            "s.ply --min-opacity 1.5",
             "--min-opacity",
         ),
         (
             "prune-triangles",
-            &["s.ply", "--min-opacity", "nan"],
+            "s.ply --min-opacity nan",
             "--min-opacity",
         ),
-        (
-            "prune-triangles",
-            &["s.ply", "--max-sigma", "0"],
-            "--max-sigma",
-        ),
-        (
-            "prune-triangles",
-            &["s.ply", "--max-sigma", "inf"],
-            "--max-sigma",
-        ),
-        ("chamfer", &["a.ply", "b.ply", "--count", "0"], "--count"),
-        ("chamfer", &["a.ply", "b.ply", "--tau", "0.1,nan"], "--tau"),
-        ("chamfer", &["a.ply", "b.ply", "--tau=-1"], "--tau"),
-        (
-            "train",
-            &["triangles", "data", "--max-shapes", "0"],
-            "--max-shapes",
-        ),
-        (
-            "train",
-            &["gaussians", "data", "--resolution", "0"],
-            "--resolution",
-        ),
+        ("prune-triangles", "s.ply --max-sigma 0", "--max-sigma"),
+        ("prune-triangles", "s.ply --max-sigma inf", "--max-sigma"),
+        ("chamfer", "a.ply b.ply --count 0", "--count"),
+        ("chamfer", "a.ply b.ply --tau 0.1,nan", "--tau"),
+        ("chamfer", "a.ply b.ply --tau=-1", "--tau"),
+        ("train", "triangles data --max-shapes 0", "--max-shapes"),
+        ("train", "gaussians data --resolution 0", "--resolution"),
         (
             "refine",
-            &[
-                "b.ply",
-                "--images",
-                "i",
-                "--cameras",
-                "c.json",
-                "--resolution",
-                "0",
-            ],
+            "b.ply --images i --cameras c.json --resolution 0",
             "--resolution",
         ),
-        (
-            "train",
-            &["gaussians", "data", "--test-every", "1"],
-            "--test-every",
-        ),
+        ("train", "gaussians data --test-every 1", "--test-every"),
         (
             "splat2points",
-            &["g.ply", "--every-nth-test", "1"],
+            "g.ply --every-nth-test 1",
             "--every-nth-test",
         ),
         (
             "refine",
-            &[
-                "b.ply",
-                "--images",
-                "i",
-                "--cameras",
-                "c.json",
-                "--test-every",
-                "1",
-            ],
+            "b.ply --images i --cameras c.json --test-every 1",
             "--test-every",
         ),
     ];
     for (bin, args, flag) in cases {
-        let mut a = args.to_vec();
-        if *bin != "chamfer" {
+        let mut a: Vec<&str> = args.split(' ').collect();
+        if bin != "chamfer" {
             a.extend(["-o", o]);
         }
         let r = run(bin, &a, None);

@@ -4,28 +4,14 @@
 //! goes on past what its header declares) are refused after a bounded
 //! read, naming the file, under the 2 GB limit.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
-use super::common::{LIMIT_KIB, fails, run, succeeds};
+use super::common::{LIMIT_KIB, fails, run, s, succeeds, unit_triangle_file};
 use splatkit::io::any::save;
 use splatkit::io::detect::FileFormat;
 use splatkit::model::{Mesh, Scene};
 use splatkit::testing::write_sphere_dataset;
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn mesh(dir: &Path) -> PathBuf {
-    let p = dir.join("m.ply");
-    let m = Mesh::new(
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        vec![[0, 1, 2]],
-    );
-    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
-    p
-}
 
 /// Runs `cmd args` under the 2 GB limit with stdin from a shell pipeline.
 fn run_piped(pipeline: &str, cmd: &str, args: &[&str]) -> Output {
@@ -48,7 +34,7 @@ fn inputs_that_never_end_are_refused() {
     let zero = dir.path().join("zero.ply");
     std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
     let out = dir.path().join("out.ply");
-    let m = mesh(dir.path());
+    let m = unit_triangle_file(dir.path());
     for input in [Path::new("/dev/zero"), zero.as_path()] {
         let o = run("clean", &[s(input), "-o", s(&out)], None);
         fails(&o, 1, &[s(input), "all zero"]);
@@ -68,7 +54,7 @@ fn inputs_that_never_end_are_refused() {
 #[test]
 fn a_stream_is_capped_by_its_declared_size() {
     let dir = tempfile::tempdir().unwrap();
-    let m = mesh(dir.path());
+    let m = unit_triangle_file(dir.path());
     let out = dir.path().join("out.ply");
     // A mesh large enough that its header and body exceed the 64 KiB sniff.
     let n = 6000;

@@ -3,45 +3,13 @@
 //! writes lands together or not at all; staging left by a killed run is
 //! cleaned by the next one.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::common::{fails, run, succeeds};
-use splatkit::io::any::save;
-use splatkit::io::detect::FileFormat;
-use splatkit::model::{Mesh, Scene};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Every file under `dir` (relative path → bytes), staging names included.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                out.insert(
-                    p.strip_prefix(dir).unwrap().to_path_buf(),
-                    b"<dir>".to_vec(),
-                );
-                stack.push(p);
-            } else {
-                out.insert(
-                    p.strip_prefix(dir).unwrap().to_path_buf(),
-                    std::fs::read(&p).unwrap(),
-                );
-            }
-        }
-    }
-    out
-}
+use super::common::{fails, mesh_file, run, s, snapshot, succeeds};
+use splatkit::model::Mesh;
 
 /// A two-triangle mesh with a duplicate vertex (so `clean` changes it).
 fn mesh(dir: &Path) -> PathBuf {
-    let p = dir.join("m.ply");
     let m = Mesh::new(
         vec![
             [0.0, 0.0, 0.0],
@@ -52,8 +20,17 @@ fn mesh(dir: &Path) -> PathBuf {
         ],
         vec![[0, 1, 2], [3, 4, 2]],
     );
-    save(&p, &Scene::Mesh(m), FileFormat::Ply).unwrap();
-    p
+    mesh_file(dir, "m.ply", m)
+}
+
+/// Runs `bin args` (no memory limit) with its `k`-th commit rename made to
+/// fail (`SPLATKIT_FAULT_COMMIT`).
+fn with_fault(bin: &str, args: &[&str], k: u32) -> std::process::Output {
+    std::process::Command::new(assert_cmd::cargo::cargo_bin(bin))
+        .args(args)
+        .env("SPLATKIT_FAULT_COMMIT", k.to_string())
+        .output()
+        .unwrap()
 }
 
 /// A report that cannot be written leaves the data output as it was: the
@@ -126,12 +103,8 @@ fn a_commit_that_fails_half_way_is_undone() {
     let report = dir.path().join("r.json");
     let before = snapshot(dir.path());
     for k in 1..=2 {
-        let exe = assert_cmd::cargo::cargo_bin("clean");
-        let o = std::process::Command::new(exe)
-            .args([s(&m), "-o", s(&out), &format!("--json={}", s(&report))])
-            .env("SPLATKIT_FAULT_COMMIT", k.to_string())
-            .output()
-            .unwrap();
+        let json = format!("--json={}", s(&report));
+        let o = with_fault("clean", &[s(&m), "-o", s(&out), &json], k);
         fails(&o, 1, &["injected failure"]);
         assert_eq!(snapshot(dir.path()), before, "fault at rename {k}");
     }
@@ -153,12 +126,7 @@ fn a_commit_that_fails_half_way_is_undone() {
     }
     let before = snapshot(dir.path());
     for k in [1, 2, 4] {
-        let exe = assert_cmd::cargo::cargo_bin("render");
-        let o = std::process::Command::new(exe)
-            .args(args)
-            .env("SPLATKIT_FAULT_COMMIT", k.to_string())
-            .output()
-            .unwrap();
+        let o = with_fault("render", &args, k);
         fails(&o, 1, &["injected failure"]);
         assert_eq!(snapshot(dir.path()), before, "fault at rename {k}");
     }
@@ -220,16 +188,11 @@ fn the_stdout_report_waits_for_the_commit() {
     let dir = tempfile::tempdir().unwrap();
     let m = mesh(dir.path());
     let out = dir.path().join("out.ply");
-    let exe = assert_cmd::cargo::cargo_bin("clean");
-    let o = std::process::Command::new(&exe)
-        .args([s(&m), "-o", s(&out), "--json"])
-        .env("SPLATKIT_FAULT_COMMIT", "1")
-        .output()
-        .unwrap();
-    fails(&o, 1, &["injected failure"]);
+    let args = [s(&m), "-o", s(&out), "--json"];
+    fails(&with_fault("clean", &args, 1), 1, &["injected failure"]);
     assert!(!out.exists());
-    let o = std::process::Command::new(&exe)
-        .args([s(&m), "-o", s(&out), "--json"])
+    let o = std::process::Command::new(assert_cmd::cargo::cargo_bin("clean"))
+        .args(args)
         .output()
         .unwrap();
     succeeds(&o);

@@ -679,11 +679,6 @@ impl TsdfVolume {
                         let x = (j as f64 - oc.cx) * z / oc.fx;
                         let y = (i as f64 - oc.cy) * z / oc.fy;
                         let p = (c2w * DVec4::new(x, y, z, 1.0)).truncate();
-                        if !self.addressable(p - DVec3::splat(tr))
-                            || !self.addressable(p + DVec3::splat(tr))
-                        {
-                            return Err(Some(p));
-                        }
                         let lo = self.locate(p - DVec3::splat(tr));
                         let hi = self.locate(p + DVec3::splat(tr));
                         // one sample's block range is checked before it is
@@ -693,6 +688,13 @@ impl TsdfVolume {
                             .fold(1u64, u64::saturating_mul);
                         if span > limit as u64 {
                             return Err(None);
+                        }
+                        // (after the span: a huge sdf_trunc is a block
+                        // count error; indices out of range otherwise)
+                        if !self.addressable(p - DVec3::splat(tr))
+                            || !self.addressable(p + DVec3::splat(tr))
+                        {
+                            return Err(Some(p));
                         }
                         for bx in lo[0]..=hi[0] {
                             for by in lo[1]..=hi[1] {
