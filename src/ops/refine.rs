@@ -150,6 +150,15 @@ fn check_masks_cover(views: &[crate::model::View], masks: &std::path::Path) -> a
 /// `refine` entry point.
 pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    // Every path named as an input is protected, read or not (`--resume`
+    // leaves BOUND unread).
+    crate::cli::declare_inputs(&[
+        Some(args.bound.as_path()),
+        args.mesh.as_deref(),
+        Some(args.images.as_path()),
+        Some(args.cameras.as_path()),
+        args.masks.as_deref(),
+    ])?;
     // every step frees and reallocates the same large buffers
     let _ = crate::cli::memory::keep_freed_memory();
     let iterations = match (args.iterations, args.medium, args.long) {

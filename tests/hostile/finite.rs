@@ -718,3 +718,26 @@ fn fusion_refuses_and_clean_repairs() {
         "clean keeps the finite part"
     );
 }
+
+/// A path named as an input but left unread is still an input: `refine
+/// BOUND … --resume DIR --json=BOUND` reads the checkpoint, not BOUND, and
+/// wrote its report over BOUND (found by `fuzz_commands`). Refused with
+/// exit 2 naming it; nothing changes. (Here for the refine helpers.)
+#[test]
+fn refine_resume_keeps_its_unread_bound_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let sc = refine_scene(dir.path());
+    let refined = dir.path().join("refined");
+    succeeds(&refine(&sc, &sc.bound, None, &refined, &["--iterations", "2"]));
+    let before = snapshot(dir.path());
+    let json = format!("--json={}", s(&sc.bound));
+    let o = refine(
+        &sc,
+        &sc.bound,
+        None,
+        &dir.path().join("again"),
+        &["--iterations", "4", "--resume", s(&refined), &json],
+    );
+    fails(&o, 2, &["bound.ply", "input"]);
+    assert_eq!(snapshot(dir.path()), before);
+}
