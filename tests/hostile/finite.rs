@@ -728,7 +728,13 @@ fn refine_resume_keeps_its_unread_bound_file() {
     let dir = tempfile::tempdir().unwrap();
     let sc = refine_scene(dir.path());
     let refined = dir.path().join("refined");
-    succeeds(&refine(&sc, &sc.bound, None, &refined, &["--iterations", "2"]));
+    succeeds(&refine(
+        &sc,
+        &sc.bound,
+        None,
+        &refined,
+        &["--iterations", "2"],
+    ));
     let before = snapshot(dir.path());
     let json = format!("--json={}", s(&sc.bound));
     let o = refine(
