@@ -81,6 +81,18 @@ struct State {
 }
 
 impl State {
+    /// Records input file `n`, refusing it when a declared output is it
+    /// (`what` words the clash: "is the input file").
+    fn add_input_file(&mut self, n: Noted, what: &str) -> Result<()> {
+        for (o, role) in &self.outputs {
+            if clash_file(o, &n) {
+                return Err(clash_message(role, o, what, &n));
+            }
+        }
+        self.input_files.push(n);
+        Ok(())
+    }
+
     fn in_staging(&self, n: &Noted) -> bool {
         self.staging_resolved
             .iter()
@@ -347,13 +359,7 @@ pub fn note_input(path: &Path) -> Result<()> {
     if state.in_staging(&n) || state.replaceable.iter().any(|d| n.canonical.starts_with(d)) {
         return Ok(());
     }
-    for (o, role) in &state.outputs {
-        if clash_file(o, &n) {
-            return Err(clash_message(role, o, "is the input file", &n));
-        }
-    }
-    state.input_files.push(n);
-    Ok(())
+    state.add_input_file(n, "is the input file")
 }
 
 /// Records the file on stdin (`< FILE`) as an input, by device and inode,
@@ -382,13 +388,7 @@ pub fn note_stdin() -> Result<()> {
         canonical: PathBuf::from("<stdin>"),
         id,
     };
-    for (o, role) in &state.outputs {
-        if clash_file(o, &n) {
-            return Err(clash_message(role, o, "is the file on", &n));
-        }
-    }
-    state.input_files.push(n);
-    Ok(())
+    state.add_input_file(n, "is the file on")
 }
 
 /// Marks `dir` as the run's own state, which it reads and may replace: the

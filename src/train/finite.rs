@@ -35,24 +35,7 @@ pub struct Param<'a> {
     pub values: &'a [f32],
 }
 
-/// Index of the first NaN or infinite value: blocks of 1024 are tested
-/// without branching (the exponent test vectorises), the index is looked
-/// for only in a block that holds one.
-fn first_bad(values: &[f32]) -> Option<usize> {
-    const EXP: u32 = 0x7f80_0000;
-    values.chunks(1024).enumerate().find_map(|(c, chunk)| {
-        let bad = chunk
-            .iter()
-            .fold(false, |acc, v| acc | (v.to_bits() & EXP == EXP));
-        if !bad {
-            return None;
-        }
-        chunk
-            .iter()
-            .position(|v| !v.is_finite())
-            .map(|i| c * 1024 + i)
-    })
-}
+use crate::model::finite::first_non_finite as first_bad;
 
 /// The first non-finite value among `params`, described as
 /// `sh_dc of Gaussian 5 (value 1 of 3) is NaN`; `None` when all are finite.
