@@ -49,16 +49,34 @@ pub fn orbit_cameras(
     let h1 = up.cross(h0);
     let el = elevation_deg.to_radians();
     let f = 0.5 * width as f64 / (0.5 * fov).tan();
-    Ok((0..n)
+    if !(dist.is_finite() && dist > 0.0) {
+        return Err(Error::invalid(format!(
+            "the orbit radius {dist} is not a positive finite distance"
+        )));
+    }
+    (0..n)
         .map(|i| {
             let a = std::f64::consts::TAU * i as f64 / n as f64;
             let dir = (h0 * a.cos() + h1 * a.sin()) * el.cos() + up * el.sin();
             let eye = centre + dir * dist;
-            let fwd = (centre - eye).normalize();
-            let right = (-up).cross(fwd).normalize();
+            // A radius below the rounding step of the centre's coordinates
+            // puts the eye on the centre; looking straight along `up` leaves
+            // no horizon: both leave no camera frame.
+            let frame = (centre - eye).try_normalize().and_then(|fwd| {
+                let right = (-up).cross(fwd).try_normalize()?;
+                Some((fwd, right))
+            });
+            let Some((fwd, right)) = frame else {
+                return Err(Error::invalid(format!(
+                    "camera {i} of the orbit has no viewing direction: radius {dist:.4e} around \
+                     the centre ({:.4e}, {:.4e}, {:.4e}) at elevation {elevation_deg}° (the radius is \
+                     below the coordinates' rounding step, or the camera looks along --up)",
+                    centre.x, centre.y, centre.z
+                )));
+            };
             let down = fwd.cross(right);
             let (r, t) = Camera::pose_from_c2w(DMat3::from_cols(right, down, fwd), eye);
-            Camera::pinhole(
+            Ok(Camera::pinhole(
                 format!("orbit_{i:03}"),
                 width,
                 height,
@@ -68,9 +86,9 @@ pub fn orbit_cameras(
                 height as f64 / 2.0,
                 r,
                 t,
-            )
+            ))
         })
-        .collect())
+        .collect()
 }
 
 /// The cameras of `spec` around `points`: one ring per elevation; rings

@@ -127,6 +127,46 @@ fn poisson_width_is_named_for_its_depth() {
     assert!(!out.exists());
 }
 
+/// An `--orbit` that cannot frame the scene (a radius below the rounding
+/// step of the scene's coordinates puts every eye on the centre) is refused
+/// naming the scene and the orbit, before any camera or picture is written
+/// (it used to fail only at the camera writer, naming no file).
+#[test]
+fn render_degenerate_orbit_names_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = mesh_file(d, "far.ply", {
+        let mut m = triangle();
+        for p in &mut m.vertices {
+            p[0] += 1.0e6;
+        }
+        m
+    });
+    let out = d.join("rend");
+    let before = snapshot(d);
+    let o = run(
+        "render",
+        &[
+            s(&scene),
+            "--orbit",
+            "2",
+            "--size",
+            "16x12",
+            "--radius",
+            "1e-12",
+            "-o",
+            s(&out),
+        ],
+        None,
+    );
+    fails(
+        &o,
+        1,
+        &["far.ply", "--orbit", "radius", "no viewing direction"],
+    );
+    assert_eq!(snapshot(d), before);
+}
+
 /// Numeric flags with no meaning — NaN, out of range, zero where nothing
 /// would come out — are refused at parse (exit 2, naming the flag), before
 /// any file is read: the inputs named here do not even exist.
