@@ -3,6 +3,7 @@
 //! every point's nearest neighbour is its radial / normal partner (the
 //! spacing of each cloud is larger than the offset, checked below).
 
+use predicates::prelude::PredicateBooleanExt;
 use splatkit::eval::chamfer::{Cloud, GenericParams, SampleMode, chamfer_generic};
 
 fn params(thresholds: &[f64]) -> GenericParams {
@@ -284,5 +285,31 @@ fn cli_drops_nan_points_and_refuses_empty_meshes() {
         .arg(&b)
         .assert()
         .code(1)
-        .stderr(predicates::str::contains("0 points"));
+        .stderr(
+            predicates::str::contains("error: prediction ")
+                .and(predicates::str::contains("empty.ply: no points to compare")),
+        );
+    // all points non-finite: said so, on the side they are on
+    let nan = tmp.path().join("nan.ply");
+    let pc = splatkit::model::PointCloud {
+        positions: vec![[f32::NAN, 0.0, 0.0]],
+        ..Default::default()
+    };
+    splatkit::io::any::save(
+        &nan,
+        &splatkit::model::Scene::PointCloud(pc),
+        splatkit::io::detect::FileFormat::Ply,
+    )
+    .unwrap();
+    assert_cmd::Command::cargo_bin("chamfer")
+        .unwrap()
+        .arg(&b)
+        .arg(&nan)
+        .assert()
+        .code(1)
+        .stderr(
+            predicates::str::contains("error: ground truth ").and(predicates::str::contains(
+                "nan.ply: no points to compare (all 1 are non-finite)",
+            )),
+        );
 }

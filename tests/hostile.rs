@@ -542,6 +542,22 @@ fn sample_counts_are_estimated_and_bounded() {
         let out = run("chamfer", &args, None);
         fails(&out, 1, &[side, "--max-samples"]);
     }
+    // Raising --max-samples past memory does not lift the budget (the
+    // fuzzer's `--count 4294967295 --max-samples 4294967295` aborted
+    // allocating 103 GB): refused with the estimate and the budget.
+    let out = run(
+        "chamfer",
+        &[
+            s(&small),
+            s(&big),
+            "--count",
+            "4294967295",
+            "--max-samples",
+            "4294967295",
+        ],
+        None,
+    );
+    fails(&out, 1, &["prediction", "--count", "memory budget"]);
     // Within the bound, the same files evaluate.
     let out = run("chamfer", &[s(&small), s(&small), "--count", "1000"], None);
     succeeds(&out);

@@ -35,13 +35,15 @@ use crate::{Error, Result};
 /// share of the k-d tree, distances, the downsampling order), rounded up.
 const BYTES_PER_SAMPLE: u64 = 128;
 
-/// The default of `--max-samples` (see its help).
+/// The default of `--max-samples` (see its help): the usable memory
+/// budget ([`crate::io::budget::usable_bytes`]) over [`BYTES_PER_SAMPLE`].
 pub fn default_max_samples() -> u64 {
-    crate::cli::memory_budget().map_or(100_000_000, |b| (b / BYTES_PER_SAMPLE).max(1))
+    (crate::io::budget::usable_bytes() / BYTES_PER_SAMPLE).max(1)
 }
 
 /// Refuses to make about `estimate` points from `file` (the `side` of the
-/// evaluation) when that exceeds `max`.
+/// evaluation) when that exceeds `max`, or when their memory exceeds the
+/// budget: a `--max-samples` raised past the budget does not lift it.
 fn check_samples(side: &str, file: &Path, estimate: f64, max: u64, how: &str) -> Result<()> {
     if estimate > max as f64 {
         return Err(Error::invalid(format!(
@@ -50,7 +52,15 @@ fn check_samples(side: &str, file: &Path, estimate: f64, max: u64, how: &str) ->
             shown(file, false)
         )));
     }
-    Ok(())
+    // `as` saturates: an estimate past u64 is refused too
+    let bytes = (estimate * BYTES_PER_SAMPLE as f64) as u64;
+    crate::io::budget::check(
+        &format!(
+            "{side} {}: {how} ({estimate:.3e} points at {BYTES_PER_SAMPLE} bytes each)",
+            shown(file, false)
+        ),
+        bytes,
+    )
 }
 
 /// Loads a point cloud or mesh file as points (`-` = stdin): a cloud's
@@ -129,8 +139,9 @@ pub struct ChamferArgs {
     pub spacing: f64,
     /// Refuse an evaluation that would make more than N points from a mesh
     /// (the estimate of `--count` or of the DTU up-sampling, area / spacing²).
-    /// Default: the memory this process may use over 128 bytes per point
-    /// (about 200 million on 24 GiB), 100 million when that cannot be read.
+    /// Default: the memory this process may use (3/4 of the smaller of
+    /// MemTotal and `ulimit -v`) over 128 bytes per point, about 150 million
+    /// on 24 GiB. A larger N does not lift that memory limit.
     #[arg(long, value_name = "N", value_parser = clap::builder::RangedU64ValueParser::<u64>::new().range(1..))]
     pub max_samples: Option<u64>,
     /// Use mesh vertices instead of samples (same as --sample vertices).
@@ -244,6 +255,23 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
     };
     let mut gt = load_cloud(gt_path, &gt_params, "ground truth", max_samples)?;
     let dropped = [drop_non_finite(&mut pred), drop_non_finite(&mut gt)];
+    for ((cloud, path), (side, n_bad)) in [(&pred, pred_path), (&gt, gt_path)]
+        .into_iter()
+        .zip([("prediction", dropped[0]), ("ground truth", dropped[1])])
+    {
+        if cloud.points.is_empty() {
+            return Err(Error::invalid(format!(
+                "{side} {}: no points to compare ({})",
+                shown(path, false),
+                if n_bad > 0 {
+                    format!("all {n_bad} are non-finite")
+                } else {
+                    "the file holds none".to_string()
+                }
+            ))
+            .into());
+        }
+    }
     let report = chamfer_generic(&pred, &gt, &params)?;
     args.common.say(format!(
         "chamfer: accuracy {:.6} completeness {:.6} chamfer-L1 {:.6} ({} vs {} points{})",

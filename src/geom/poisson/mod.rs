@@ -271,15 +271,25 @@ pub fn reconstruct_with_progress(
     let (levels, solve_stats) = system::solve(&samples, &sd, &sp);
     lap("solve", &mut secs);
 
+    // Weighted mean of the field at the samples. Summed in fixed chunks of
+    // 4096 whose partial sums are added in order: a rayon `reduce` pairs
+    // partial sums as work stealing happens to split them, which changed
+    // the last bits of the iso value from run to run.
     let (num, den) = samples
         .pos
-        .par_iter()
-        .zip(&samples.weight)
-        .map(|(p, w)| match system::eval(&levels, *p) {
-            Some(v) => (w * v, *w),
-            None => (0.0, 0.0),
+        .par_chunks(4096)
+        .zip(samples.weight.par_chunks(4096))
+        .map(|(ps, ws)| {
+            ps.iter()
+                .zip(ws)
+                .fold((0.0, 0.0), |acc, (p, w)| match system::eval(&levels, *p) {
+                    Some(v) => (acc.0 + w * v, acc.1 + w),
+                    None => acc,
+                })
         })
-        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        .collect::<Vec<(f64, f64)>>()
+        .into_iter()
+        .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
     let iso = if den > 0.0 { num / den } else { 0.5 };
     let xp = extract::ExtractParams {
         iso,

@@ -293,12 +293,23 @@ fn deterministic_across_thread_counts() {
             .num_threads(n)
             .build()
             .unwrap()
-            .install(|| reconstruct(&pc, &params(6)).unwrap().mesh)
+            .install(|| reconstruct(&pc, &params(6)).unwrap())
     };
-    let (a, b) = (run(1), run(3));
-    assert_eq!(a.vertices, b.vertices);
-    assert_eq!(a.faces, b.faces);
-    assert_eq!(a.scalar("density"), b.scalar("density"));
+    let a = run(1);
+    // The iso value too, bit for bit, over repeated runs: it was a rayon
+    // `reduce` whose pairing follows work stealing, so its last bits changed
+    // from run to run even at one thread count (seen: …546 / …548 / …549).
+    for n in [3, 2, 3, 2] {
+        let b = run(n);
+        assert_eq!(
+            a.stats.iso_value.to_bits(),
+            b.stats.iso_value.to_bits(),
+            "{n} threads"
+        );
+        assert_eq!(a.mesh.vertices, b.mesh.vertices);
+        assert_eq!(a.mesh.faces, b.mesh.faces);
+        assert_eq!(a.mesh.scalar("density"), b.mesh.scalar("density"));
+    }
 }
 
 /// Degenerate inputs give errors, never panics or hangs.
