@@ -1344,6 +1344,7 @@ const OPTIONAL_KEYS: &[&str] = &[
     "split_by_cameras",
     "max_screen_radius",
     "regularize",
+    "final_loss",
 ];
 
 /// Keys of a JSON text whose value is `null` (serde writes NaN and

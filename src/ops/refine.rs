@@ -299,14 +299,15 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     let start = r.iteration();
     let pb = args.common.progress(iterations - start, "refine");
     let t_loop = std::time::Instant::now();
-    let mut last_loss = 0.0;
+    // `None` (JSON null) when this run took no step
+    let mut last_loss = None;
     while r.iteration() < iterations {
         // the loss every iteration, every parameter before each evaluation
         // and at the end (train::finite)
         let st = r
             .step_checked(&views, &train)
             .map_err(|m| anyhow::anyhow!("refine: {m}"))?;
-        last_loss = st.loss;
+        last_loss = Some(st.loss);
         pb.inc(1);
         if r.iteration().is_multiple_of(10) {
             let rate = (r.iteration() - start) as f64 / t_loop.elapsed().as_secs_f64().max(1e-9);

@@ -489,7 +489,9 @@ struct LoopResult {
     evals: Vec<Eval>,
     start: u64,
     loop_s: f64,
-    last_loss: f64,
+    /// The loss of the last step, `None` when this run took no step
+    /// (`--iterations` or `--stop-at` at the checkpoint's iteration).
+    last_loss: Option<f64>,
 }
 
 fn train_loop(
@@ -508,14 +510,14 @@ fn train_loop(
     let end = a.stop_at.map_or(iterations, |s| s.clamp(start, iterations));
     let pb = a.common.progress(end - start, label);
     let t_loop = std::time::Instant::now();
-    let mut last_loss = 0.0;
+    let mut last_loss = None;
     while t.iterations_done() < end {
         // the loss every iteration, every parameter before each evaluation
         // and at the end (train::finite)
         let st = t
             .step_checked(views, &p.train)
             .map_err(|m| anyhow::anyhow!("{label}: {m}"))?;
-        last_loss = st.loss;
+        last_loss = Some(st.loss);
         pb.inc(1);
         let at = t.iterations_done();
         if at.is_multiple_of(10) {

@@ -547,3 +547,50 @@ fn chamfer_with_every_distance_discarded() {
     );
     super::common::fails(&o, 1, &["--max-dist", "accuracy"]);
 }
+
+/// A run that takes no step (`--iterations 0`: the initial model written
+/// as it is) reports `final_loss` as null, not a loss of 0 that was never
+/// computed.
+#[test]
+fn no_step_reports_no_loss() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    write_sphere_dataset(&data, 4, 16, 50).unwrap();
+    let out = dir.path().join("out");
+    let o = run(
+        "train",
+        &[
+            "triangles",
+            s(&data),
+            "-o",
+            s(&out),
+            "--iterations",
+            "0",
+            "-q",
+        ],
+        None,
+    );
+    succeeds(&o);
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m["iterations_this_run"], 0);
+    assert!(m["final_loss"].is_null(), "{m}");
+    // one step: a finite loss
+    let o = run(
+        "train",
+        &[
+            "triangles",
+            s(&data),
+            "-o",
+            s(&out),
+            "--iterations",
+            "1",
+            "-q",
+        ],
+        None,
+    );
+    succeeds(&o);
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+    assert!(m["final_loss"].as_f64().is_some_and(f64::is_finite), "{m}");
+}
