@@ -255,10 +255,10 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
     };
     let mut gt = load_cloud(gt_path, &gt_params, "ground truth", max_samples)?;
     let dropped = [drop_non_finite(&mut pred), drop_non_finite(&mut gt)];
-    for ((cloud, path), (side, n_bad)) in [(&pred, pred_path), (&gt, gt_path)]
-        .into_iter()
-        .zip([("prediction", dropped[0]), ("ground truth", dropped[1])])
-    {
+    for (cloud, path, side, n_bad) in [
+        (&pred, pred_path, "prediction", dropped[0]),
+        (&gt, gt_path, "ground truth", dropped[1]),
+    ] {
         if cloud.points.is_empty() {
             return Err(Error::invalid(format!(
                 "{side} {}: no points to compare ({})",

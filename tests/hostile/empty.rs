@@ -557,40 +557,24 @@ fn no_step_reports_no_loss() {
     let data = dir.path().join("data");
     write_sphere_dataset(&data, 4, 16, 50).unwrap();
     let out = dir.path().join("out");
-    let o = run(
-        "train",
-        &[
+    // `train triangles DATA --iterations N`, then its metrics.json
+    let metrics = |n: &str| -> serde_json::Value {
+        let args = [
             "triangles",
             s(&data),
             "-o",
             s(&out),
             "--iterations",
-            "0",
+            n,
             "-q",
-        ],
-        None,
-    );
-    succeeds(&o);
-    let m: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+        ];
+        succeeds(&run("train", &args, None));
+        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap()
+    };
+    let m = metrics("0");
     assert_eq!(m["iterations_this_run"], 0);
     assert!(m["final_loss"].is_null(), "{m}");
     // one step: a finite loss
-    let o = run(
-        "train",
-        &[
-            "triangles",
-            s(&data),
-            "-o",
-            s(&out),
-            "--iterations",
-            "1",
-            "-q",
-        ],
-        None,
-    );
-    succeeds(&o);
-    let m: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+    let m = metrics("1");
     assert!(m["final_loss"].as_f64().is_some_and(f64::is_finite), "{m}");
 }
