@@ -121,7 +121,7 @@ impl Common {
             // Held until the run's outputs are committed: a report on
             // stdout never claims a run whose files then failed to land.
             if let Err(text) = crate::io::transaction::defer_stdout(text) {
-                println!("{text}");
+                crate::io::source::print_stdout(&format!("{text}\n"));
             }
         } else {
             crate::io::write_output(path, |w| {

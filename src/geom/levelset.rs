@@ -41,7 +41,7 @@ use splatkit_render::gaussian::{self, Gaussians3, RasterSettings, RenderOutput, 
 use crate::geom::diamond_zbuffer::diamond_zbuffer;
 use crate::geom::knn::NnIndex;
 use crate::model::rng;
-use crate::model::{Camera, Column, PointCloud, Property, ScalarData};
+use crate::model::{Camera, Column, PointCloud, Property, ScalarData, rig};
 use crate::{Error, Result};
 
 /// A point and its unit normal.
@@ -336,23 +336,12 @@ fn depth_and_hits(
                     if d <= 0.0 {
                         return None;
                     }
-                    let p = back_project(cam, o % w, o / w, d as f64);
+                    let p = rig::back_project(cam, o % w, o / w, d as f64).to_array();
                     centres.nearest(&p).map(|(i, _)| (d, i as u32))
                 })
                 .collect()
         }
     }
-}
-
-/// World point at camera depth `z` on the ray through the centre of pixel (x, y).
-pub fn back_project(cam: &Camera, x: usize, y: usize, z: f64) -> [f64; 3] {
-    let pc = glam::DVec3::new(
-        (x as f64 + 0.5 - cam.cx) / cam.fx * z,
-        (y as f64 + 0.5 - cam.cy) / cam.fy * z,
-        z,
-    );
-    let w = cam.c2w_rotation() * pc + cam.center();
-    [w.x, w.y, w.z]
 }
 
 /// The Gaussians with opacity > `min_opacity` and a finite centre, with
@@ -435,7 +424,7 @@ pub fn sample_levelset(
             .map(|&o| {
                 let o = o as usize;
                 let (z, hit) = hits[o].expect("covered");
-                let p = back_project(cam, o % w, o / w, z as f64);
+                let p = rig::back_project(cam, o % w, o / w, z as f64).to_array();
                 // the density neighbours: the hit Gaussian's, or p's own
                 let own: Vec<u32>;
                 let (hit, set) = if hit == HIT_FROM_POINT {

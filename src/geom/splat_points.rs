@@ -21,8 +21,9 @@ use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 use splatkit_render::sh::sh_to_rgb;
 
 use crate::geom::diamond_zbuffer::diamond_zbuffer;
-use crate::geom::levelset::{LevelPoints, back_project, opaque_dc_subset};
+use crate::geom::levelset::{LevelPoints, opaque_dc_subset};
 use crate::model::Camera;
+use crate::model::rig::back_project;
 use crate::model::rng;
 
 fn dc_only(g: &Gaussians3) -> Gaussians3 {
@@ -140,7 +141,7 @@ pub fn depth_points(
                 if nb.iter().any(|&k| d[k] <= 0.0) {
                     return None;
                 }
-                let p = |k: usize| back_project(cam, k % w, k / w, d[k] as f64);
+                let p = |k: usize| back_project(cam, k % w, k / w, d[k] as f64).to_array();
                 let (l, r, u, b) = (p(o - 1), p(o + 1), p(o - w), p(o + w));
                 let dx = [r[0] - l[0], r[1] - l[1], r[2] - l[2]];
                 let dy = [b[0] - u[0], b[1] - u[1], b[2] - u[2]];

@@ -32,12 +32,13 @@
 //! `rgb·a + bg·(1 − a)`, and its alpha is kept in [`View::alpha`].
 //!
 //! # Resolution
-//! Views are loaded at an integer fraction 1/k of the cameras' size (every
-//! camera's width, height, fx, fy, cx, cy divided by k; sizes rounded down;
-//! photos box-filtered k×k). k is [`DatasetOptions::downscale`], or, when
+//! Views are loaded at an integer fraction 1/k of the cameras' size, by
+//! the rule every command shares ([`crate::model::rig::downscale`]: sizes
+//! rounded as 3DGS does, ties to even; intrinsics scaled by the same
+//! factors; photos box-filtered k×k when k divides their size, otherwise
+//! pixel-area resampled). k is [`DatasetOptions::downscale`], or, when
 //! [`DatasetOptions::resolution`] gives a target width W, the smallest k with
-//! `widest camera / k ≤ W` (3DGS's `-r WIDTH`, restricted to integers so
-//! pixels stay whole blocks). DTU's `image_half` photos are half the size
+//! `widest camera / k ≤ W` (3DGS's `-r WIDTH`, restricted to integers). DTU's `image_half` photos are half the size
 //! of their cameras (the npz describes the 1600×1200 originals): k counts
 //! from the cameras, so it must be even; downscale 1 ("as stored") means 2
 //! there, an odd downscale above 1 is an error, and a target width picks the

@@ -11,14 +11,15 @@
 //! folder dropped), a depth folder is searched for `NAME_depth.npy`,
 //! `NAME.npy`, `NAME_depth.png`, `NAME.png`, in that order (the first two
 //! are what `render` writes, so its output folder fuses as it is); colour
-//! and mask folders for `NAME.png` and the camera's own file name.
+//! and mask folders by the rule every command pairs cameras and images
+//! with ([`crate::model::rig::pick_file`]).
 
 use std::path::{Path, PathBuf};
 
 use crate::io::cameras::npz::parse_npy;
 use crate::io::image::decode_png;
 use crate::io::source::read_input;
-use crate::model::Camera;
+use crate::model::{Camera, rig};
 use crate::{Error, Result};
 
 /// A depth map, row-major.
@@ -31,12 +32,9 @@ pub struct DepthImage {
 }
 
 /// The stem a camera's files are named after: its image name without
-/// folders or extension.
+/// folders or extension ([`rig::camera_stem`]).
 pub fn camera_stem(cam: &Camera) -> String {
-    Path::new(&cam.name)
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| cam.name.clone())
+    rig::camera_stem(&cam.name)
 }
 
 /// The first of `names` that is a file in `dir`, or an error listing them.
@@ -72,19 +70,28 @@ pub fn find_depth(dir: &Path, cam: &Camera) -> Result<PathBuf> {
     )
 }
 
-/// The colour image or mask of `cam` in `dir`: `NAME.png`, then the
-/// camera's own file name.
+/// The colour image or mask of `cam` in `dir`, by the rule every command
+/// pairs cameras and images with ([`rig::pick_file`]: the camera's own
+/// file name, its stem with an image extension, a unique equal number).
 pub fn find_image(dir: &Path, what: &str, cam: &Camera) -> Result<PathBuf> {
-    let s = camera_stem(cam);
-    let own = Path::new(&cam.name)
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut names = vec![format!("{s}.png")];
-    if !own.is_empty() && own != names[0] {
-        names.push(own);
+    crate::io::transaction::note_input_dir(dir)?;
+    let name = dir.display().to_string();
+    let names: Vec<String> = std::fs::read_dir(dir)
+        .map_err(|e| Error::io(&name, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    match rig::pick_file(&cam.name, &names) {
+        Some(n) => Ok(dir.join(n)),
+        None => Err(Error::invalid(format!(
+            "camera {:?} has no {what} in {} (looked for {}, and a file numbered {:?})",
+            cam.name,
+            dir.display(),
+            rig::file_candidates(&cam.name)[..].join(", "),
+            rig::camera_stem(&cam.name)
+        ))),
     }
-    find_in(dir, what, cam, &names)
 }
 
 /// Reads a depth map (`.npy` or `.png`, by extension); `png_scale` divides

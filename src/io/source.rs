@@ -511,6 +511,21 @@ impl Drop for StagedDir {
     }
 }
 
+/// Prints `text` to stdout (a report, a summary): a reader that has gone
+/// away (`--json | head`, a closed pipe) is not an error of the run — its
+/// outputs are committed already — so a broken pipe ends the printing
+/// silently; any other write error is said on stderr. Never panics, unlike
+/// `print!`.
+pub fn print_stdout(text: &str) {
+    let mut out = std::io::stdout().lock();
+    let r = out.write_all(text.as_bytes()).and_then(|()| out.flush());
+    if let Err(e) = r
+        && e.kind() != std::io::ErrorKind::BrokenPipe
+    {
+        eprintln!("warning: writing to stdout: {e}");
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -158,7 +158,7 @@ impl Transaction {
             }
         }
         for text in stdout {
-            println!("{text}");
+            crate::io::source::print_stdout(&format!("{text}\n"));
         }
         Ok(())
     }

@@ -7,12 +7,15 @@
 //! 2. a file whose stem is the same number (DTU: camera `007`, image
 //!    `000007.png`, mask `007.png`).
 //!
-//! A camera without a file is an error naming the camera, the folder and the
-//! names tried. Sizes: cameras are scaled to 1/`downscale`; an image may be
-//! the camera's size divided by any divisor j of `downscale` (j = downscale:
-//! used as is; otherwise box-filtered by downscale / j, so DTU's half-size
-//! images serve `--downscale 2` and `4`); anything else is an error naming
-//! the file and both sizes. PNG (8/16-bit, grey/RGB/RGBA; alpha dropped, or
+//! (Both rules are [`crate::model::rig::pick_file`], shared with every
+//! command.) A camera without a file is an error naming the camera, the
+//! folder and the names tried. Sizes: cameras are scaled to 1/`downscale`
+//! by 3DGS's rule ([`crate::model::rig::downscale`]: sizes rounded, ties
+//! to even); an image may be the camera's size at 1/j for any divisor j of
+//! `downscale` (j = downscale: used as is; an exact multiple of the target:
+//! box-filtered, so DTU's half-size images serve `--downscale 2` and `4`;
+//! otherwise, when the size does not divide, pixel-area resampled);
+//! anything else is an error naming the file and both sizes. PNG (8/16-bit, grey/RGB/RGBA; alpha dropped, or
 //! composited onto [`ViewOptions::background`] and kept) and baseline
 //! JPEG are read; values are scaled to [0, 1] without gamma change. A mask
 //! pixel is object where its value (blue byte, as OpenCV's channel 0) is
@@ -24,10 +27,10 @@ use rayon::prelude::*;
 
 use crate::io::cameras::image_dimensions;
 use crate::io::image::{RgbImage, read_mask, read_png_rgb, read_png_rgb_alpha};
-use crate::model::{Camera, Mask, View};
+use crate::model::{Camera, Mask, View, rig};
 use crate::{Error, Result};
 
-const EXTS: [&str; 6] = ["png", "jpg", "jpeg", "PNG", "JPG", "JPEG"];
+const EXTS: [&str; 6] = rig::IMAGE_EXTENSIONS;
 
 /// The files of `dir` that look like images, sorted by name.
 fn image_files(dir: &Path) -> Result<Vec<PathBuf>> {
@@ -47,48 +50,23 @@ fn image_files(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
-fn stem_of(p: &str) -> String {
-    Path::new(p)
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
-/// The file in `files` (from `dir`) for camera `cam`.
+/// The file in `files` (from `dir`) for camera `cam`
+/// ([`rig::pick_file`]).
 fn find_file(dir: &Path, files: &[PathBuf], cam: &Camera, what: &str) -> Result<PathBuf> {
-    let base = Path::new(&cam.name)
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let stem = stem_of(&cam.name);
-    let mut tried = vec![base.clone()];
-    tried.extend(EXTS.iter().map(|e| format!("{stem}.{e}")));
-    for t in &tried {
-        let p = dir.join(t);
-        if !t.is_empty() && p.is_file() {
-            return Ok(p);
-        }
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    if let Some(n) = rig::pick_file(&cam.name, &names) {
+        return Ok(dir.join(n));
     }
-    if let Ok(n) = stem.parse::<u64>() {
-        let hits: Vec<&PathBuf> = files
-            .iter()
-            .filter(|f| {
-                f.file_stem()
-                    .and_then(|s| s.to_str())
-                    .and_then(|s| s.parse::<u64>().ok())
-                    == Some(n)
-            })
-            .collect();
-        if let [one] = hits.as_slice() {
-            return Ok((*one).clone());
-        }
-    }
+    let tried = rig::file_candidates(&cam.name);
     Err(Error::invalid(format!(
         "no {what} for camera {:?} in {} (tried {}, and a file numbered {:?})",
         cam.name,
         dir.display(),
         tried[..4.min(tried.len())].join(", "),
-        stem
+        rig::camera_stem(&cam.name)
     )))
 }
 
@@ -159,18 +137,165 @@ pub fn read_rgb(path: &Path) -> Result<RgbImage> {
     })
 }
 
-/// `cam` at 1/`k` of its resolution: size ⌊W/k⌋ × ⌊H/k⌋, intrinsics divided
-/// by k (pixel centres stay at integer + 0.5).
-pub fn downscale_camera(cam: &Camera, k: u32) -> Camera {
-    let mut c = cam.clone();
-    let f = k as f64;
-    c.width = cam.width / k;
-    c.height = cam.height / k;
-    c.fx /= f;
-    c.fy /= f;
-    c.cx /= f;
-    c.cy /= f;
-    c
+/// How a file is brought to its camera's downscaled size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Resize {
+    /// The file is the downscaled size already.
+    AsIs,
+    /// The file is exactly `f` times the downscaled size: `f` × `f` box
+    /// average.
+    Box(usize),
+    /// Any other size the camera allows (the size does not divide):
+    /// pixel-area average, each output pixel the mean of the source area it
+    /// covers, fractional pixels weighted by their covered fraction.
+    Area,
+}
+
+impl Resize {
+    /// `px` (`src` = width × height) at `dst`; `avg` averages the values of
+    /// one box (whole pixels, [`Resize::Box`]). [`Resize::Area`] averages
+    /// through [`Pixel`].
+    fn apply<T: Pixel>(
+        self,
+        px: Vec<T>,
+        src: (usize, usize),
+        dst: (usize, usize),
+        avg: impl Fn(&[T]) -> T,
+    ) -> Vec<T> {
+        match self {
+            Resize::AsIs => px,
+            Resize::Box(f) => box_down(&px, src.0, f, dst.0, dst.1, avg),
+            Resize::Area => {
+                let planes = T::planes(&px);
+                let out: Vec<Vec<f32>> =
+                    planes.iter().map(|p| area_resample(p, src, dst)).collect();
+                T::from_planes(&out)
+            }
+        }
+    }
+}
+
+/// A pixel value the area resampler can split into f32 planes and put
+/// back together.
+trait Pixel: Copy {
+    fn planes(px: &[Self]) -> Vec<Vec<f32>>;
+    fn from_planes(planes: &[Vec<f32>]) -> Vec<Self>;
+}
+
+impl Pixel for [f32; 3] {
+    fn planes(px: &[Self]) -> Vec<Vec<f32>> {
+        (0..3).map(|c| px.iter().map(|p| p[c]).collect()).collect()
+    }
+    fn from_planes(planes: &[Vec<f32>]) -> Vec<Self> {
+        (0..planes[0].len())
+            .map(|i| std::array::from_fn(|c| planes[c][i]))
+            .collect()
+    }
+}
+
+impl Pixel for f32 {
+    fn planes(px: &[Self]) -> Vec<Vec<f32>> {
+        vec![px.to_vec()]
+    }
+    fn from_planes(planes: &[Vec<f32>]) -> Vec<Self> {
+        planes[0].clone()
+    }
+}
+
+/// Masks: the object fraction of the area, object where it is at least
+/// one half (as the box rule's "most of the block").
+impl Pixel for bool {
+    fn planes(px: &[Self]) -> Vec<Vec<f32>> {
+        vec![px.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect()]
+    }
+    fn from_planes(planes: &[Vec<f32>]) -> Vec<Self> {
+        planes[0].iter().map(|&v| v >= 0.5).collect()
+    }
+}
+
+/// For each output index along an axis of `n` source pixels resampled to
+/// `m`: the first source pixel it covers and the covered fraction of each
+/// source pixel, normalised to sum 1.
+fn area_weights(n: usize, m: usize) -> Vec<(usize, Vec<f64>)> {
+    let s = n as f64 / m as f64;
+    (0..m)
+        .map(|o| {
+            let (a, b) = (o as f64 * s, ((o + 1) as f64 * s).min(n as f64));
+            let first = a.floor() as usize;
+            let last = (b.ceil() as usize).clamp(first + 1, n);
+            let w: Vec<f64> = (first..last)
+                .map(|i| (b.min(i as f64 + 1.0) - a.max(i as f64)).max(0.0) / (b - a))
+                .collect();
+            (first, w)
+        })
+        .collect()
+}
+
+/// Pixel-area resampling of one row-major plane from `src` to `dst`
+/// (separable: rows, then columns; f64 sums).
+fn area_resample(p: &[f32], src: (usize, usize), dst: (usize, usize)) -> Vec<f32> {
+    let (wx, wy) = (area_weights(src.0, dst.0), area_weights(src.1, dst.1));
+    let mut rows = vec![0.0f64; dst.0 * src.1];
+    for y in 0..src.1 {
+        for (x, (first, w)) in wx.iter().enumerate() {
+            rows[y * dst.0 + x] = w
+                .iter()
+                .enumerate()
+                .map(|(i, &wi)| wi * p[y * src.0 + first + i] as f64)
+                .sum();
+        }
+    }
+    let mut out = vec![0.0f32; dst.0 * dst.1];
+    for (y, (first, w)) in wy.iter().enumerate() {
+        for x in 0..dst.0 {
+            out[y * dst.0 + x] = w
+                .iter()
+                .enumerate()
+                .map(|(i, &wi)| wi * rows[(first + i) * dst.0 + x])
+                .sum::<f64>() as f32;
+        }
+    }
+    out
+}
+
+/// How a `w` × `h` file serves camera `cam` at 1/`k` (`target` its
+/// downscaled size): the file must be the camera's size at 1/j for a
+/// divisor j of k ([`rig::downscaled_size`]; j = k: the target itself, so
+/// DTU's half-size images serve `--downscale 2` and `4`); anything else
+/// is an error naming the file and both sizes.
+fn fit(
+    cam: &Camera,
+    k: u32,
+    target: (usize, usize),
+    (w, h): (usize, usize),
+    file: &Path,
+) -> Result<Resize> {
+    let (tw, th) = target;
+    for j in (1..=k).rev().filter(|j| k.is_multiple_of(*j)) {
+        let (sw, sh) = rig::downscaled_size(cam.width, cam.height, j);
+        if (w, h) != (sw as usize, sh as usize) {
+            continue;
+        }
+        return Ok(if (w, h) == (tw, th) {
+            Resize::AsIs
+        } else if w.is_multiple_of(tw) && h.is_multiple_of(th) && w / tw == h / th {
+            Resize::Box(w / tw)
+        } else {
+            Resize::Area
+        });
+    }
+    let (cw, ch) = (cam.width, cam.height);
+    Err(Error::invalid(format!(
+        "{}: the image is {w}x{h} but camera {:?} is {cw}x{ch}{} (expected {tw}x{th}, or the \
+         camera's size divided by a divisor of the downscale)",
+        file.display(),
+        cam.name,
+        if k > 1 {
+            format!(" at --downscale {k}")
+        } else {
+            String::new()
+        }
+    )))
 }
 
 fn box_down<T: Copy>(
@@ -281,29 +406,9 @@ pub fn load_views_from_files(
     pairs
         .par_iter()
         .map(|(cam, img, mask)| {
-            let target = downscale_camera(cam, k);
+            let target = rig::downscale(cam, k);
             let (tw, th) = (target.width as usize, target.height as usize);
-            // the factor the file still has to be divided by: the file is the
-            // camera's size divided by some j that divides k (j = k: as is)
-            let fit = |w: usize, h: usize, file: &Path| -> Result<usize> {
-                let (cw, ch) = (cam.width as usize, cam.height as usize);
-                for j in (1..=k as usize).rev().filter(|j| (k as usize).is_multiple_of(*j)) {
-                    if (w, h) == (cw / j, ch / j) && (w / (k as usize / j), h / (k as usize / j)) == (tw, th) {
-                        return Ok(k as usize / j);
-                    }
-                }
-                Err(Error::invalid(format!(
-                    "{}: the image is {w}x{h} but camera {:?} is {cw}x{ch}{} (expected {tw}x{th}, or the \
-                     camera's size divided by a divisor of the downscale)",
-                    file.display(),
-                    cam.name,
-                    if k > 1 {
-                        format!(" at --downscale {k}")
-                    } else {
-                        String::new()
-                    }
-                )))
-            };
+            let fit = |w: usize, h: usize, file: &Path| fit(cam, k, (tw, th), (w, h), file);
             // sizes from the headers, before anything is decoded
             let (hw, hh) = image_dimensions(img)?;
             let f = fit(hw as usize, hh as usize, img)?;
@@ -334,21 +439,13 @@ pub fn load_views_from_files(
                     *p = std::array::from_fn(|c| p[c] * a + bg[c] * (1.0 - a));
                 }
             }
-            let image = if f > 1 {
-                box_down(&pixels, rgb.width, f, tw, th, |b| {
-                    let n = b.len() as f32;
-                    std::array::from_fn(|c| b.iter().map(|p| p[c]).sum::<f32>() / n)
-                })
-            } else {
-                pixels
-            };
-            let alpha = alpha.map(|a| {
-                if f > 1 {
-                    box_down(&a, rgb.width, f, tw, th, |b| b.iter().sum::<f32>() / b.len() as f32)
-                } else {
-                    a
-                }
+            let src = (rgb.width, rgb.height);
+            let image = f.apply(pixels, src, (tw, th), |b| {
+                let n = b.len() as f32;
+                std::array::from_fn(|c| b.iter().map(|p| p[c]).sum::<f32>() / n)
             });
+            let alpha = alpha
+                .map(|a| f.apply(a, src, (tw, th), |b| b.iter().sum::<f32>() / b.len() as f32));
             let mask = match (mask, mask_fit) {
                 (Some(mp), Some((mw, mh, f))) => {
                     let Mask {
@@ -360,17 +457,15 @@ pub fn load_views_from_files(
                     if (width, height) != (mw, mh) {
                         return Err(Error::format(
                             mp.display(),
-                            format!("the header says {mw}x{mh} but {width}x{height} pixels were decoded"),
+                            format!(
+                                "the header says {mw}x{mh} but {width}x{height} pixels were decoded"
+                            ),
                         ));
                     }
-                    Some(if f > 1 {
-                        // object where most of the block is object
-                        box_down(&bits, width, f, tw, th, |b| {
-                            2 * b.iter().filter(|&&x| x).count() >= b.len()
-                        })
-                    } else {
-                        bits
-                    })
+                    // object where most of the block is object
+                    Some(f.apply(bits, (width, height), (tw, th), |b| {
+                        2 * b.iter().filter(|&&x| x).count() >= b.len()
+                    }))
                 }
                 _ => None,
             };
@@ -383,4 +478,51 @@ pub fn load_views_from_files(
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pixel-area weights by hand: 3 pixels to 2, each output covers 1.5
+    /// source pixels (1 + ½ and ½ + 1); 5 to 2 (2.5 each); a constant
+    /// plane stays constant; a mask keeps object where at least half the
+    /// area is object.
+    #[test]
+    fn area_resampling_weights_pixels_by_covered_area() {
+        let out = area_resample(&[0.0, 3.0, 6.0], (3, 1), (2, 1));
+        assert!(
+            (out[0] - 1.0).abs() < 1e-6 && (out[1] - 5.0).abs() < 1e-6,
+            "{out:?}"
+        );
+        let out = area_resample(&[1.0, 2.0, 3.0, 4.0, 5.0], (5, 1), (2, 1));
+        assert!(
+            (out[0] - 1.8).abs() < 1e-6 && (out[1] - 4.2).abs() < 1e-6,
+            "{out:?}"
+        );
+        let c = area_resample(&[0.7; 35 * 27], (35, 27), (18, 14));
+        assert!(c.iter().all(|v| (v - 0.7).abs() < 1e-6));
+        let m = Resize::Area.apply(vec![true, true, false], (3, 1), (2, 1), |_| false);
+        assert_eq!(m, vec![true, false], "2/3 object, then 1/3");
+    }
+
+    /// 3DGS's sizes: a 35-pixel camera at 1/2 is 18 pixels (ties to even),
+    /// the file at full size is area-resampled, a 2× file box-filtered, the
+    /// target size used as is; a floor-sized file (17) is refused.
+    #[test]
+    fn fit_follows_the_rig_rule() {
+        let mut cam = crate::testing::cameras_around(1, 4.0, 35, 40.0).remove(0);
+        cam.height = 35;
+        let t = (18, 18);
+        let f = |w, h| fit(&cam, 2, t, (w, h), Path::new("x.png"));
+        assert_eq!(f(35, 35).unwrap(), Resize::Area);
+        assert_eq!(f(18, 18).unwrap(), Resize::AsIs);
+        assert!(f(17, 17).is_err());
+        cam.width = 36;
+        cam.height = 36;
+        assert_eq!(
+            fit(&cam, 2, (18, 18), (36, 36), Path::new("x.png")).unwrap(),
+            Resize::Box(2)
+        );
+    }
 }

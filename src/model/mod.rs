@@ -13,6 +13,7 @@ pub mod mesh;
 pub mod obs_mask;
 pub mod orbit;
 pub mod point_cloud;
+pub mod rig;
 pub mod rng;
 pub mod scene;
 pub mod texture;

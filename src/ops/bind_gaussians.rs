@@ -13,7 +13,7 @@ use crate::cli::{Common, positive_f64, shown, usage};
 use crate::geom::binding::colors::{dc_from_gaussians, rgb_from_views};
 use crate::geom::binding::rebind::{ScaleRule, rebind};
 use crate::geom::binding::{
-    BindOptions, THICKNESS_FACTOR, bind, camera_extent, materialize, mean_of, mesh_radius,
+    BindOptions, THICKNESS_FACTOR, bind, materialize, mean_of, mesh_radius,
 };
 use crate::io::any::{
     check_finite_mesh, load, load_bound, load_gaussians_finite, load_mesh_finite, save_gaussians,
@@ -166,7 +166,7 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
                     let cams = read_cameras(c)?;
                     let centres: Vec<[f64; 3]> =
                         cams.iter().map(|c| c.center().to_array()).collect();
-                    let e = camera_extent(&centres).with_context(|| {
+                    let e = crate::model::rig::nerfpp_radius(&centres).with_context(|| {
                         format!(
                             "{}: the cameras share one centre, so they give no extent; give \
                              --thickness",

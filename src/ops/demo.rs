@@ -295,7 +295,7 @@ fn bind_and_refine(
         crate::geom::decimate::Target::Faces(args.bind_faces),
     )?;
     let centres: Vec<[f64; 3]> = cams.iter().map(|c| c.center().to_array()).collect();
-    let extent = binding::camera_extent(&centres).unwrap_or(1.0);
+    let extent = crate::model::rig::nerfpp_radius(&centres).unwrap_or(1.0);
     let mut b = binding::bind(
         &mesh,
         &BindOptions {

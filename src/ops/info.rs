@@ -35,7 +35,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         match describe(f) {
             Ok(i) => {
                 if args.common.json.is_none() {
-                    print!("{}", render_text(&i));
+                    crate::io::source::print_stdout(&render_text(&i));
                 }
                 infos.push(i);
             }

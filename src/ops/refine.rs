@@ -20,7 +20,6 @@ use clap::Args;
 use serde_json::{Value, json};
 
 use crate::cli::{Common, shown, usage};
-use crate::geom::binding::camera_extent;
 use crate::geom::binding::rebind::{ScaleRule, rebind};
 use crate::io::StagedDir;
 use crate::io::any::{load_bound, load_mesh_finite, save_gaussians, save_mesh};
@@ -252,7 +251,7 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         .iter()
         .map(|&i| views[i].camera.center().to_array())
         .collect();
-    let extent = camera_extent(&centres).unwrap_or(1.0);
+    let extent = crate::model::rig::nerfpp_radius(&centres).unwrap_or(1.0);
     let params = RefineParams {
         background: if args.white_background {
             [1.0; 3]

@@ -42,7 +42,7 @@ use crate::io::dataset::{Dataset, DatasetOptions, MaskMode, load_dataset};
 use crate::io::detect::FileFormat;
 use crate::io::write_output;
 use crate::model::rng::seeded;
-use crate::model::{Camera, PointCloud};
+use crate::model::{Camera, PointCloud, rig};
 use crate::train::checkpoint::{decode, encode};
 use crate::train::gaussians::init::{init_gaussians, random_points};
 use crate::train::gaussians::{GaussianParams, GaussianTrainer, Regularize};
@@ -325,7 +325,8 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
         .iter()
         .map(|&i| data.views[i].camera.center().to_array())
         .collect();
-    let extent = nerfpp_radius(&centres);
+    // 3DGS's getNerfppNorm; 1 when the centres coincide
+    let extent = rig::nerfpp_radius(&centres).unwrap_or(1.0);
     let (points, random_init) = match &data.points {
         Some(p) if p.len() >= 2 => (p.clone(), false),
         _ => {
@@ -388,48 +389,22 @@ fn points_source(p: &Prepared, a: &DataArgs) -> String {
         )
 }
 
-/// 3DGS's `getNerfppNorm` radius: 1.1 × the largest distance of a camera
-/// centre from their mean (1 when all coincide).
-pub fn nerfpp_radius(centres: &[[f64; 3]]) -> f64 {
-    let n = centres.len().max(1) as f64;
-    let c: [f64; 3] = std::array::from_fn(|k| centres.iter().map(|p| p[k]).sum::<f64>() / n);
-    let r = centres
-        .iter()
-        .map(|p| (0..3).map(|k| (p[k] - c[k]).powi(2)).sum::<f64>().sqrt())
-        .fold(0.0, f64::max);
-    if r > 0.0 { 1.1 * r } else { 1.0 }
-}
-
-/// The box random initial points fill: a cube centred on the point closest
-/// (least squares) to every camera's optical axis — what the cameras look
-/// at — with half-size half the mean camera distance to it (the unit cube
-/// about a NeRF-synthetic object seen from 4 units, the unit sphere of a
-/// NeuS-normalised DTU scan). Cameras all looking the same way (no focus)
-/// fall back to the bounding box of their centres.
+/// The box random initial points fill: a cube centred on the cameras'
+/// focus ([`rig::focus`], what they look at) with half-size half the mean
+/// camera distance to it (the unit cube about a NeRF-synthetic object seen
+/// from 4 units, the unit sphere of a NeuS-normalised DTU scan). Cameras
+/// all looking the same way (no focus) fall back to the bounding box of
+/// their centres.
 fn init_box(cams: &[&Camera]) -> ([f64; 3], [f64; 3]) {
-    use glam::{DMat3, DVec3};
-    let mut a = DMat3::ZERO;
-    let mut b = DVec3::ZERO;
-    for c in cams {
-        let d = (c.c2w_rotation() * DVec3::Z).normalize();
-        let m = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-        a += m;
-        b += m * c.center();
-    }
-    let centres: Vec<[f64; 3]> = cams.iter().map(|c| c.center().to_array()).collect();
-    if a.determinant().abs() < 1e-6 * (cams.len().max(1) as f64).powi(3) {
+    use glam::DVec3;
+    let Some(f) = rig::focus(cams.iter().copied()) else {
+        let centres: Vec<[f64; 3]> = cams.iter().map(|c| c.center().to_array()).collect();
         return bounding_box(&centres);
-    }
-    let focus = a.inverse() * b;
-    let mean = cams
-        .iter()
-        .map(|c| (c.center() - focus).length())
-        .sum::<f64>()
-        / cams.len().max(1) as f64;
-    let h = 0.5 * mean;
+    };
+    let h = 0.5 * f.mean_distance;
     (
-        (focus - DVec3::splat(h)).to_array(),
-        (focus + DVec3::splat(h)).to_array(),
+        (f.point - DVec3::splat(h)).to_array(),
+        (f.point + DVec3::splat(h)).to_array(),
     )
 }
 

@@ -25,7 +25,7 @@ use crate::io::any::{MeshWriteOptions, load_kinds, output_format, save_mesh};
 use crate::io::cameras::read_cameras;
 use crate::io::depth::{find_depth, find_image, read_depth, read_mask_values, read_rgb8};
 use crate::io::detect::FileFormat;
-use crate::model::{self, Camera, SceneKind};
+use crate::model::{self, Camera, SceneKind, rig};
 
 /// Arguments of `tsdf-fuse`.
 #[derive(Args, Debug, Clone)]
@@ -256,7 +256,7 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
     let cams: Vec<Camera> = read_cameras(&args.cameras)
         .with_context(|| format!("reading cameras {}", args.cameras.display()))?
         .into_iter()
-        .map(|c| downscaled(c, args.downscale))
+        .map(|c| rig::downscale(&c, args.downscale))
         .collect();
     for c in &cams {
         c.require_pinhole()
@@ -603,44 +603,17 @@ fn load_view(
 /// World points of every 8th pixel (rows and columns) with a depth.
 fn depth_points(cam: &Camera, depth: &[f32]) -> Vec<[f32; 3]> {
     let (w, h) = (cam.width as usize, cam.height as usize);
-    let c2w_r = cam.rotation.transpose();
-    let o = cam.center();
     let mut out = Vec::new();
     for i in (0..h).step_by(8) {
         for j in (0..w).step_by(8) {
             let z = depth[i * w + j] as f64;
             if z > 0.0 {
-                let d = glam::DVec3::new(
-                    (j as f64 + 0.5 - cam.cx) / cam.fx * z,
-                    (i as f64 + 0.5 - cam.cy) / cam.fy * z,
-                    z,
-                );
-                let p = o + c2w_r * d;
+                let p = rig::back_project(cam, j, i, z);
                 out.push([p.x as f32, p.y as f32, p.z as f32]);
             }
         }
     }
     out
-}
-
-/// `cam` at 1/n of its size: width and height rounded as 3DGS does, focal
-/// lengths and principal point scaled by the same factors.
-fn downscaled(mut cam: Camera, n: u32) -> Camera {
-    if n == 1 {
-        return cam;
-    }
-    let (w, h) = (
-        ((cam.width as f64 / n as f64).round() as u32).max(1),
-        ((cam.height as f64 / n as f64).round() as u32).max(1),
-    );
-    let (sx, sy) = (w as f64 / cam.width as f64, h as f64 / cam.height as f64);
-    cam.fx *= sx;
-    cam.cx *= sx;
-    cam.fy *= sy;
-    cam.cy *= sy;
-    cam.width = w;
-    cam.height = h;
-    cam
 }
 
 /// A mask at the camera's size: as it is, or box-averaged when it is an

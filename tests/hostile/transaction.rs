@@ -235,3 +235,41 @@ fn special_outputs_are_written_in_place() {
         .collect();
     assert!(left.is_empty(), "staging left: {left:?}");
 }
+
+/// A reader that goes away (`--json | head`) is not a crash: the report,
+/// printed after the outputs are committed, meets a closed pipe and the
+/// run still ends with 0, the output in place and no panic on stderr.
+/// Before, `println!` panicked ("failed printing to stdout: Broken pipe")
+/// with a backtrace. The writer starts 0.3 s after `true` has exited, so
+/// the pipe is closed when it writes.
+#[test]
+fn a_closed_stdout_after_commit_is_not_a_crash() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mesh(dir.path());
+    let out = dir.path().join("c.ply");
+    for (bin, args) in [
+        ("clean", vec![s(&m), "-o", s(&out), "--json"]),
+        ("info", vec![s(&m)]),
+    ] {
+        let cmd = format!(
+            "(sleep 0.3; '{}' {} 2>'{}'; echo $? > '{}') | true",
+            assert_cmd::cargo::cargo_bin(bin).display(),
+            args.iter()
+                .map(|a| format!("'{a}'"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            dir.path().join("err").display(),
+            dir.path().join("rc").display()
+        );
+        let st = std::process::Command::new("sh")
+            .args(["-c", &cmd])
+            .status()
+            .unwrap();
+        assert!(st.success());
+        let rc = std::fs::read_to_string(dir.path().join("rc")).unwrap();
+        let err = std::fs::read_to_string(dir.path().join("err")).unwrap();
+        assert_eq!(rc.trim(), "0", "{bin}: {err}");
+        assert!(!err.contains("panicked"), "{bin}: {err}");
+    }
+    assert!(out.is_file());
+}

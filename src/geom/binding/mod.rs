@@ -312,13 +312,6 @@ pub fn to_raster(b: &BoundGaussians, active_degree: usize) -> Gaussians3 {
     }
 }
 
-/// The cameras' spatial extent as 3DGS and SuGaR define it:
-/// 1.1 × the largest distance of a camera centre from their mean.
-pub fn camera_extent(centers: &[[f64; 3]]) -> Option<f64> {
-    let (_, r) = crate::geom::scene_split::centre_and_spread(centers);
-    (r > 0.0 && r.is_finite()).then_some(1.1 * r)
-}
-
 /// Half the diagonal of the mesh's bounding box (the fallback extent when no
 /// cameras are given).
 pub fn mesh_radius(mesh: &Mesh) -> f64 {

@@ -2,15 +2,14 @@
 //! (`estimate_bounding_sphere` and `focus_point_fn` in its `mesh_utils.py`).
 //!
 //! - focus point: the point nearest to every optical axis in the least-squares
-//!   sense, `(Σ Mᵢ)⁻¹ Σ Mᵢ oᵢ` with Mᵢ = I − dᵢdᵢᵀ (dᵢ the unit viewing
-//!   direction, oᵢ the camera centre; Mᵢ is a projector, so MᵢᵀMᵢ = Mᵢ);
+//!   sense ([`crate::model::rig::focus`], shared with every command);
 //! - radius: the smallest distance from a camera centre to the focus point;
 //! - `depth_trunc = 2·radius`, `voxel = depth_trunc / mesh_res` (2DGS
 //!   default 1024), `sdf_trunc = 5·voxel`.
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
-use crate::model::Camera;
+use crate::model::{Camera, rig};
 use crate::{Error, Result};
 
 /// The cameras' focus point and bounding-sphere radius.
@@ -20,46 +19,32 @@ pub struct CameraSphere {
     pub radius: f64,
 }
 
-/// The focus point and radius of `cams`. Errors when there is no camera,
-/// when every optical axis is parallel (the point is not defined) or when
-/// the radius comes out zero or not finite.
+/// The focus point and radius of `cams` ([`crate::model::rig::focus`]:
+/// the point and the smallest camera distance). Errors when there is no
+/// camera, when the optical axes are (nearly) parallel (the point is not
+/// defined) or when the radius comes out zero or not finite.
 pub fn camera_sphere(cams: &[Camera]) -> Result<CameraSphere> {
     if cams.is_empty() {
         return Err(Error::invalid(
             "no cameras to estimate the scene radius from",
         ));
     }
-    let mut m_sum = DMat3::ZERO;
-    let mut mo_sum = DVec3::ZERO;
-    let mut centres = Vec::with_capacity(cams.len());
-    for c in cams {
-        // the optical axis in world space: the third row of R
-        let d = c.rotation.row(2).normalize();
-        let o = c.center();
-        let m = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-        m_sum += m;
-        mo_sum += m * o;
-        centres.push(o);
-    }
-    let n = cams.len() as f64;
-    let mean = m_sum * (1.0 / n);
-    if mean.determinant().abs() < 1e-12 {
+    let Some(f) = rig::focus(cams) else {
         return Err(Error::invalid(
             "the cameras' optical axes are all parallel: no focus point; give --depth-trunc, \
              --voxel and --sdf-trunc",
         ));
-    }
-    let center = mean.inverse() * (mo_sum / n);
-    let radius = centres
-        .iter()
-        .map(|o| (*o - center).length())
-        .fold(f64::INFINITY, f64::min);
+    };
+    let radius = f.min_distance;
     if !(radius.is_finite() && radius > 0.0) {
         return Err(Error::invalid(format!(
             "scene radius from the cameras is {radius}: give --depth-trunc, --voxel and --sdf-trunc"
         )));
     }
-    Ok(CameraSphere { center, radius })
+    Ok(CameraSphere {
+        center: f.point,
+        radius,
+    })
 }
 
 /// 2DGS's defaults: (voxel, sdf_trunc, depth_trunc) for a radius and a mesh
@@ -73,6 +58,7 @@ pub fn auto_params(radius: f64, mesh_res: usize) -> (f64, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DMat3;
 
     /// Cameras on a circle of radius 3 around (1, 2, 0.5), each looking at
     /// it: the focus point is the centre and the radius 3; one camera moved

@@ -2,7 +2,7 @@ use glam::DVec3;
 use rand::RngExt;
 
 use super::*;
-use crate::geom::binding::{BindOptions, bind, camera_extent};
+use crate::geom::binding::{BindOptions, bind};
 use crate::model::rng::seeded;
 use crate::model::{Camera, Mesh};
 use crate::testing::{
@@ -48,7 +48,7 @@ fn coarse_perturbed(rings: usize, amount: f64, seed: u64) -> Mesh {
 
 fn params(model: &BoundGaussians, cams: &[Camera]) -> RefineParams {
     let centres: Vec<[f64; 3]> = cams.iter().map(|c| c.center().to_array()).collect();
-    let r = camera_extent(&centres).unwrap();
+    let r = crate::model::rig::nerfpp_radius(&centres).unwrap();
     RefineParams {
         background: [0.0; 3],
         normal_consistency: 0.1,
