@@ -1413,6 +1413,10 @@ fn empty_output(p: &Path) -> Option<String> {
         "off"
     } else if head.starts_with(b"glTF") || text.starts_with('{') {
         ""
+    } else if head.starts_with(b"\x89PNG") || head.contains(&0) {
+        // binary (a PNG, an .npy): its compressed bytes may hold "\nv "
+        // by chance, which once passed for an OBJ without faces
+        ""
     } else if p.extension().is_some_and(|e| e == "obj") || text.lines().any(|l| l.starts_with("v "))
     {
         "obj"

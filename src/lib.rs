@@ -13,6 +13,11 @@ pub mod geom;
 pub mod io;
 pub mod model;
 pub mod ops;
+/// Test support (generated shapes, datasets, shared-data lookup): compiled
+/// for this crate's unit tests and, through the `testing` feature that the
+/// dev-dependency on itself turns on, for `tests/`, `benches/` and
+/// `examples/`; never into the library a command ships with.
+#[cfg(any(test, feature = "testing"))]
 #[doc(hidden)]
 pub mod testing;
 pub mod train;

@@ -291,10 +291,11 @@ fn checkpoint_for_torch_load_check() {
 }
 
 /// Throughput at real scale (1 M triangles, a 236 MB checkpoint): write to a
-/// temporary file, read back, compare. Ignored by default (run with
-/// `cargo test --release --test torch_pt -- --ignored`).
+/// temporary file, read back, compare. A long run: ignored by default,
+/// run by `cargo test --workspace -- --ignored` (as `.ci/run` does) or
+/// alone with `cargo test --release --test torch_pt -- --ignored`.
 #[test]
-#[ignore]
+#[ignore = "long run (1M triangles, 236 MB): cargo test --workspace -- --ignored, as .ci/run does"]
 fn large_checkpoint_throughput() {
     let s = soup(1_000_000, 4);
     let dir = tempfile::tempdir().unwrap();

@@ -14,6 +14,37 @@ pub mod orbit;
 
 pub use crate::io::source::shown;
 
+/// See [`Common::loop_bar`].
+pub struct LoopBar {
+    common: Common,
+    label: &'static str,
+    bar: Option<ProgressBar>,
+}
+
+impl LoopBar {
+    /// The loop runs `len` iterations.
+    pub fn start(&mut self, len: u64) {
+        self.bar = Some(self.common.progress(len, self.label));
+    }
+
+    /// One iteration done; every 10th iteration the bar shows `status()`.
+    pub fn step(&self, iteration: u64, status: impl FnOnce() -> String) {
+        if let Some(b) = &self.bar {
+            b.inc(1);
+            if iteration.is_multiple_of(10) {
+                b.set_message(status());
+            }
+        }
+    }
+
+    /// Clears the bar.
+    pub fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
 /// Options every command accepts.
 #[derive(Args, Debug, Clone, Default)]
 pub struct Common {
@@ -74,6 +105,17 @@ impl Common {
         );
         pb.set_message(msg);
         pb
+    }
+
+    /// A progress bar for an iterative loop whose length is known only when
+    /// it starts (a training session's `Start` event); hidden like
+    /// [`Common::progress`].
+    pub fn loop_bar(&self, label: &'static str) -> LoopBar {
+        LoopBar {
+            common: self.clone(),
+            label,
+            bar: None,
+        }
     }
 
     /// Prints a human summary line on stderr unless `--quiet`.

@@ -16,10 +16,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 use splatkit_render::Camera;
-use splatkit_render::gaussian::Gaussians3;
+use splatkit_render::gaussian::{Gaussians3, quat_matrix};
 use splatkit_render::mesh::RayTriangle;
-
-use crate::geom::levelset::diamond_corners;
 
 /// Per pixel (row-major `width × height`): camera z of the nearest diamond
 /// hit beyond `near` and the index of its Gaussian, `None` where nothing is
@@ -108,6 +106,63 @@ pub fn diamond_zbuffer(g: &Gaussians3, cam: &Camera, near: f64) -> Vec<Option<(f
             (k != u64::MAX).then(|| (f32::from_bits((k >> 32) as u32), k as u32))
         })
         .collect()
+}
+
+fn quat_rows(q: [f32; 4]) -> [[f64; 3]; 3] {
+    let n = q.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().sqrt();
+    let unit = if n > 0.0 && n.is_finite() {
+        q.map(|v| v as f64 / n)
+    } else {
+        [1.0, 0.0, 0.0, 0.0]
+    };
+    quat_matrix(unit)
+}
+
+/// The rotation (columns = local axes) and scales of Gaussian `i`, with the
+/// scales floored at 1e-9 so the inverse covariance stays finite.
+pub(crate) fn frame(g: &Gaussians3, i: usize) -> ([[f64; 3]; 3], [f64; 3]) {
+    (
+        quat_rows(g.rotations[i]),
+        g.scales[i].map(|s| (s as f64).abs().max(1e-9)),
+    )
+}
+
+/// The four corners of Gaussian `i`'s camera-facing diamond seen from the
+/// camera centre `c`: ±2σ along its two largest axes, each slid along its
+/// camera ray onto the plane through μ perpendicular to the view direction,
+/// in the order (+a1, +a2, −a1, −a2). All corners are NaN when μ is at the
+/// camera, and a corner that falls behind it is NaN (its faces never hit).
+pub fn diamond_corners(g: &Gaussians3, i: usize, c: [f64; 3]) -> [[f32; 3]; 4] {
+    let (r, s) = frame(g, i);
+    let mu = g.means[i].map(f64::from);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
+    let (k1, k2) = (order[0], order[1]);
+    let axis = |k: usize| [r[0][k], r[1][k], r[2][k]];
+    let (a1, a2) = (axis(k1), axis(k2));
+    let to = [mu[0] - c[0], mu[1] - c[1], mu[2] - c[2]];
+    let dist = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+    if dist.is_nan() || dist == 0.0 {
+        return [[f32::NAN; 3]; 4];
+    }
+    let dh = to.map(|v| v / dist);
+    let corner = |a: [f64; 3], t: f64| -> [f32; 3] {
+        let v = [mu[0] + t * a[0], mu[1] + t * a[1], mu[2] + t * a[2]];
+        // slide along the camera ray onto the plane through μ ⟂ dh
+        let rel = [v[0] - c[0], v[1] - c[1], v[2] - c[2]];
+        let along = rel[0] * dh[0] + rel[1] * dh[1] + rel[2] * dh[2];
+        if along <= 0.0 {
+            return [f32::NAN; 3];
+        }
+        let f = dist / along;
+        [0, 1, 2].map(|k| (c[k] + rel[k] * f) as f32)
+    };
+    [
+        corner(a1, 2.0 * s[k1]),
+        corner(a2, 2.0 * s[k2]),
+        corner(a1, -2.0 * s[k1]),
+        corner(a2, -2.0 * s[k2]),
+    ]
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 pub mod any;
 pub mod budget;
 pub mod cameras;
+pub mod checkpoint;
 pub mod dataset;
 pub mod depth;
 pub mod describe;

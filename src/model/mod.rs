@@ -11,6 +11,7 @@ pub mod gaussians;
 pub mod mask;
 pub mod mesh;
 pub mod obs_mask;
+pub mod optim_state;
 pub mod orbit;
 pub mod point_cloud;
 pub mod rig;

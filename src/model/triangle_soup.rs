@@ -39,6 +39,13 @@ pub struct TriangleSoup {
 }
 
 impl TriangleSoup {
+    /// The DC colour of triangle `i` as 8-bit RGB: `0.5 + C0·dc`, clamped
+    /// to [0, 1] (NaN → 0) and truncated toward zero like torch's
+    /// float→uint8 cast (the face colours of the soup PLY).
+    pub fn dc_rgb8(&self, i: usize) -> [u8; 3] {
+        self.sh_dc[i].map(|d| (splatkit_render::sh::sh_to_rgb(d).clamp(0.0, 1.0) * 255.0) as u8)
+    }
+
     /// Number of triangles.
     pub fn len(&self) -> usize {
         self.triangles.len()

@@ -24,15 +24,14 @@ use crate::geom::binding::rebind::{ScaleRule, rebind};
 use crate::io::StagedDir;
 use crate::io::any::{load_bound, load_mesh_finite, save_gaussians, save_mesh};
 use crate::io::cameras::read_cameras;
+use crate::io::checkpoint;
 use crate::io::dataset::check_views_budget;
 use crate::io::detect::FileFormat;
 use crate::io::ply::bound::attach;
 use crate::io::views::{ViewOptions, load_views};
-use crate::io::write_output;
-use crate::model::BoundGaussians;
-use crate::train::checkpoint::{decode, encode};
+use crate::model::{BoundGaussians, View};
 use crate::train::refine::{Eval, LearningRates, RefineParams, Refiner, spatial_lr_scale};
-use crate::train::schedule::split;
+use crate::train::session::{self, Event, Outcome};
 
 /// Arguments of `refine`.
 #[derive(Args, Debug, Clone)]
@@ -104,19 +103,6 @@ pub struct RefineArgs {
     pub common: Common,
 }
 
-fn read_json(path: &Path) -> anyhow::Result<Value> {
-    let b = crate::io::source::read_file(path)
-        .with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_slice(&b).with_context(|| format!("{}: not valid JSON", path.display()))
-}
-
-fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    write_output(path, |w| {
-        w.write_all(bytes).map_err(crate::io::source::werr)
-    })
-    .with_context(|| format!("writing {}", path.display()))
-}
-
 /// Bytes per pixel of one refinement step's buffers for the view it trains
 /// on (beyond the photos, which [`crate::io::dataset::VIEW_BYTES_PER_PIXEL`]
 /// counts): the render (52 of output + 12 working), the L1 and SSIM
@@ -146,7 +132,7 @@ fn check_masks_cover(views: &[crate::model::View], masks: &std::path::Path) -> a
     Ok(())
 }
 
-/// `refine` entry point.
+/// `refine` entry point: parse, load, run the training session, write.
 pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     args.common.init()?;
     // Every path named as an input is protected, read or not (`--resume`
@@ -168,18 +154,81 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     };
     let stage = StagedDir::new(&args.output)?;
     let t0 = std::time::Instant::now();
-    // the model: a checkpoint or the bound file
-    let (mut model, resume_state) = match &args.resume {
+    let (model, saved) = load_model(&args)?;
+    let (views, downscale) = load_refine_views(&args)?;
+    let (train, test) =
+        session::prepare_split(views.len(), args.test_every).map_err(anyhow::Error::msg)?;
+    let names: Vec<&str> = views.iter().map(|v| v.camera.name.as_str()).collect();
+    let centres: Vec<[f64; 3]> = train
+        .iter()
+        .map(|&i| views[i].camera.center().to_array())
+        .collect();
+    let extent = crate::model::rig::nerfpp_radius(&centres).unwrap_or(1.0);
+    let params = RefineParams {
+        background: if args.white_background {
+            [1.0; 3]
+        } else {
+            [0.0; 3]
+        },
+        normal_consistency: args.normal_consistency,
+        sh_warmup: 1000,
+        lr: LearningRates::default(),
+        spatial_lr_scale: spatial_lr_scale(extent, model.mesh.vertices.len()),
+        seed: args.seed,
+    };
+    let settings = json!({
+        "params": params, "downscale": downscale, "test_every": args.test_every,
+        "views": names, "masks": args.masks.is_some(),
+    });
+    let mut r = Refiner::new(model, params);
+    let evals = match saved {
+        Some(ck) => resume(&args, &mut r, ck, &settings)?,
+        None => Vec::new(),
+    };
+    if r.iteration() > iterations {
+        bail!(
+            "the checkpoint is at iteration {} already, past --iterations {iterations}",
+            r.iteration()
+        );
+    }
+    let views = session::Views {
+        all: &views,
+        train: &train,
+        test: &test,
+    };
+    let schedule = session::Schedule {
+        iterations,
+        stop_at: None,
+        eval_every: args.eval_every,
+    };
+    let mut bar = args.common.loop_bar("refine");
+    let outcome = session::run(&mut r, views, schedule, evals, "refine", &mut |e| match e {
+        Event::Start { start, end } => bar.start(end - start),
+        Event::Step { iteration, .. } => bar.step(iteration, || e.status()),
+        Event::Eval(_) => {}
+    });
+    bar.finish();
+    let outcome = outcome.map_err(anyhow::Error::msg)?;
+    let summary = write_outputs(&args, stage.path(), &r, views, &outcome, &settings, t0)?;
+    stage.commit()?;
+    report(&args, &r, &outcome, test.len())?;
+    let mut compact = summary;
+    if let Some(o) = compact.as_object_mut() {
+        o.remove("settings");
+    }
+    args.common.emit_json(&compact)
+}
+
+/// The model to refine: a checkpoint's (with its saved state) or the bound
+/// file, its mesh replaced by MESH when one is given (not on `--resume`).
+fn load_model(args: &RefineArgs) -> anyhow::Result<(BoundGaussians, Option<checkpoint::Saved>)> {
+    let (mut model, saved) = match &args.resume {
         Some(dir) => {
-            let ck = dir.join("checkpoint");
+            let ck = dir.join(checkpoint::DIR);
             // The run advances this checkpoint (often in the same output folder).
             crate::io::transaction::note_replaceable(&ck);
-            let (b, _) = load_bound(&ck.join("model.ply"), "refine --resume")?;
-            let state = read_json(&ck.join("state.json"))?;
-            let opt = crate::io::source::read_file(&ck.join("optimizer.bin"))
-                .with_context(|| format!("reading {}", ck.join("optimizer.bin").display()))?;
-            let (step, groups) = decode(&ck.join("optimizer.bin").display().to_string(), &opt)?;
-            (b, Some((state, step, groups)))
+            let (b, _) = load_bound(&ck.join(checkpoint::MODEL), "refine --resume")?;
+            (b, Some(checkpoint::read(dir)?))
         }
         None => (load_bound(&args.bound, "refine")?.0, None),
     };
@@ -188,7 +237,12 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         model = rebind(&model, &mesh, ScaleRule::MeanSide)
             .map_err(|e| anyhow::anyhow!("{}: {e}", shown(m, false)))?;
     }
-    // the views
+    Ok((model, saved))
+}
+
+/// The photos (and masks) of the cameras, in name order, at the downscale
+/// of `--downscale` or `--resolution`: (views, downscale).
+fn load_refine_views(args: &RefineArgs) -> anyhow::Result<(Vec<View>, u32)> {
     let mut cams = read_cameras(&args.cameras)?;
     if cams.is_empty() {
         bail!("{}: no cameras", shown(&args.cameras, false));
@@ -238,109 +292,49 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     if let Some(masks) = &args.masks {
         check_masks_cover(&views, masks)?;
     }
-    let (train, test) = split(views.len(), args.test_every);
-    if train.is_empty() {
-        bail!(
-            "all {} views are held out (--test-every {}): nothing to train on",
-            views.len(),
-            args.test_every
-        );
-    }
-    let names: Vec<&str> = views.iter().map(|v| v.camera.name.as_str()).collect();
-    let centres: Vec<[f64; 3]> = train
-        .iter()
-        .map(|&i| views[i].camera.center().to_array())
-        .collect();
-    let extent = crate::model::rig::nerfpp_radius(&centres).unwrap_or(1.0);
-    let params = RefineParams {
-        background: if args.white_background {
-            [1.0; 3]
-        } else {
-            [0.0; 3]
-        },
-        normal_consistency: args.normal_consistency,
-        sh_warmup: 1000,
-        lr: LearningRates::default(),
-        spatial_lr_scale: spatial_lr_scale(extent, model.mesh.vertices.len()),
-        seed: args.seed,
-    };
-    let settings = json!({
-        "params": params, "downscale": downscale, "test_every": args.test_every,
-        "views": names, "masks": args.masks.is_some(),
-    });
-    let mut r = Refiner::new(model, params);
-    let mut evals: Vec<Eval> = Vec::new();
-    if let Some((state, step, groups)) = resume_state {
-        if state.get("settings") != Some(&settings) {
-            bail!(
-                "{}: the checkpoint was made with other settings or views (--images, --cameras, \
-                 --downscale, --test-every, --masks, --white-background, --seed, \
-                 --normal-consistency must match the first run)",
-                args.resume.as_ref().expect("resume").display()
-            );
-        }
-        r.restore(step, groups).map_err(|m| {
-            anyhow::anyhow!("{}: {m}", args.resume.as_ref().expect("resume").display())
-        })?;
-        if let Some(e) = state.get("evals") {
-            evals = serde_json::from_value(e.clone()).context("checkpoint state.json: evals")?;
-        }
-    }
-    if r.iteration() > iterations {
-        bail!(
-            "the checkpoint is at iteration {} already, past --iterations {iterations}",
-            r.iteration()
-        );
-    }
-    if !test.is_empty() && evals.is_empty() {
-        evals.push(r.evaluate(&views, &test));
-    }
-    let start = r.iteration();
-    let pb = args.common.progress(iterations - start, "refine");
-    let t_loop = std::time::Instant::now();
-    // `None` (JSON null) when this run took no step
-    let mut last_loss = None;
-    while r.iteration() < iterations {
-        // the loss every iteration, every parameter before each evaluation
-        // and at the end (train::finite)
-        let st = r
-            .step_checked(&views, &train)
-            .map_err(|m| anyhow::anyhow!("refine: {m}"))?;
-        last_loss = Some(st.loss);
-        pb.inc(1);
-        if r.iteration().is_multiple_of(10) {
-            let rate = (r.iteration() - start) as f64 / t_loop.elapsed().as_secs_f64().max(1e-9);
-            pb.set_message(format!(
-                "loss {:.4}  PSNR {:.2}  {rate:.2} it/s",
-                st.loss, st.psnr
-            ));
-        }
-        let at = r.iteration();
-        if !test.is_empty()
-            && args.eval_every > 0
-            && at.is_multiple_of(args.eval_every)
-            && at < iterations
-        {
-            r.check_finite()
-                .map_err(|m| anyhow::anyhow!("refine: {m}"))?;
-            evals.push(r.evaluate(&views, &test));
-        }
-    }
-    r.check_finite()
-        .map_err(|m| anyhow::anyhow!("refine: {m}"))?;
-    if !test.is_empty() && evals.last().map(|e| e.iteration) != Some(r.iteration()) {
-        evals.push(r.evaluate(&views, &test));
-    }
-    pb.finish_and_clear();
-    let loop_s = t_loop.elapsed().as_secs_f64();
-    // outputs
-    let dir = stage.path().to_path_buf();
-    let ck = dir.join("checkpoint");
-    std::fs::create_dir_all(&ck).with_context(|| format!("creating {}", ck.display()))?;
+    Ok((views, downscale))
+}
+
+/// Restores a checkpoint into `r`; returns its evaluations. Refused when
+/// the checkpoint was made with other settings.
+fn resume(
+    args: &RefineArgs,
+    r: &mut Refiner,
+    ck: checkpoint::Saved,
+    settings: &Value,
+) -> anyhow::Result<Vec<Eval>> {
+    let dir = args.resume.as_ref().expect("resume");
+    let name = ck.state_file.display().to_string();
+    let evals = session::resume_evals(&ck.state, settings, &name).map_err(|e| match e {
+        Some(m) => anyhow::anyhow!(m),
+        None => anyhow::anyhow!(
+            "{}: the checkpoint was made with other settings or views (--images, --cameras, \
+             --downscale, --test-every, --masks, --white-background, --seed, \
+             --normal-consistency must match the first run)",
+            dir.display()
+        ),
+    })?;
+    r.restore(ck.step, ck.groups)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
+    Ok(evals)
+}
+
+/// Writes every output into the staging folder `dir`; returns the metrics.
+fn write_outputs(
+    args: &RefineArgs,
+    dir: &Path,
+    r: &Refiner,
+    views: session::Views<'_>,
+    o: &Outcome,
+    settings: &Value,
+    t0: std::time::Instant,
+) -> anyhow::Result<Value> {
     let b: &BoundGaussians = &r.model;
     let g = attach(b, crate::geom::binding::materialize(b));
+    std::fs::create_dir_all(dir.join(checkpoint::DIR))
+        .with_context(|| format!("creating {}", dir.join(checkpoint::DIR).display()))?;
     save_gaussians(&dir.join("refined_bound.ply"), &g)?;
-    save_gaussians(&ck.join("model.ply"), &g)?;
+    save_gaussians(&dir.join(checkpoint::DIR).join(checkpoint::MODEL), &g)?;
     save_mesh(
         &dir.join("refined_mesh.ply"),
         &b.mesh,
@@ -348,62 +342,56 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
         &Default::default(),
     )?;
     let (step, groups) = r.optimizer_state();
-    write_bytes(&ck.join("optimizer.bin"), &encode(step, &groups))?;
     let state = json!({"format": "splatkit-refine-checkpoint-1", "iteration": step,
-                       "settings": settings, "evals": evals});
-    write_bytes(
-        &ck.join("state.json"),
-        serde_json::to_string_pretty(&state)?.as_bytes(),
-    )?;
-    let done = r.iteration() - start;
+                       "settings": settings, "evals": o.evals});
+    checkpoint::write(dir, step, &groups, &state)?;
+    let done = o.done(r);
     let summary = json!({
         "input": shown(&args.bound, false),
         "output": shown(&args.output, false),
         "gaussians": b.len(),
         "faces": b.mesh.faces.len(),
         "vertices": b.mesh.vertices.len(),
-        "train_views": train.len(),
-        "test_views": test.len(),
-        "width": views[0].camera.width,
-        "height": views[0].camera.height,
+        "train_views": views.train.len(),
+        "test_views": views.test.len(),
+        "width": views.all[0].camera.width,
+        "height": views.all[0].camera.height,
         "iterations": r.iteration(),
         "iterations_this_run": done,
         "seconds": t0.elapsed().as_secs_f64(),
-        "loop_seconds": loop_s,
-        "iterations_per_second": done as f64 / loop_s.max(1e-9),
-        "final_loss": last_loss,
-        "evals": evals,
+        "loop_seconds": o.loop_s,
+        "iterations_per_second": o.rate(r),
+        "final_loss": o.last_loss,
+        "evals": o.evals,
         "settings": settings,
     });
-    write_bytes(
-        &dir.join("metrics.json"),
-        serde_json::to_string_pretty(&summary)?.as_bytes(),
-    )?;
-    stage.commit()?;
-    if let (Some(first), Some(last)) = (evals.first(), evals.last()) {
+    checkpoint::write_json(&dir.join("metrics.json"), &summary)?;
+    Ok(summary)
+}
+
+/// The human summary on stderr.
+fn report(args: &RefineArgs, r: &Refiner, o: &Outcome, test_views: usize) -> anyhow::Result<()> {
+    let done = o.done(r);
+    if let (Some(first), Some(last)) = (o.evals.first(), o.evals.last()) {
         args.common.say(format!(
-            "refine: {} Gaussians, {done} iterations in {loop_s:.1} s ({:.2} it/s); held-out PSNR \
-             {:.2} -> {:.2} dB, SSIM {:.4} -> {:.4} ({} views) -> {}",
-            b.len(),
-            done as f64 / loop_s.max(1e-9),
+            "refine: {} Gaussians, {done} iterations in {:.1} s ({:.2} it/s); held-out PSNR \
+             {:.2} -> {:.2} dB, SSIM {:.4} -> {:.4} ({test_views} views) -> {}",
+            r.model.len(),
+            o.loop_s,
+            o.rate(r),
             first.psnr,
             last.psnr,
             first.ssim,
             last.ssim,
-            test.len(),
             args.output.display()
         ));
     } else {
         args.common.say(format!(
-            "refine: {} Gaussians, {done} iterations in {loop_s:.1} s -> {}",
-            b.len(),
+            "refine: {} Gaussians, {done} iterations in {:.1} s -> {}",
+            r.model.len(),
+            o.loop_s,
             args.output.display()
         ));
     }
-    let mut compact = summary.clone();
-    if let Some(o) = compact.as_object_mut() {
-        o.remove("settings");
-    }
-    args.common.emit_json(&compact)?;
     Ok(())
 }

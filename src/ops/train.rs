@@ -38,16 +38,15 @@ use crate::io::any::{
     load_gaussians_finite, load_soup_finite, save_gaussians, save_points, save_soup,
 };
 use crate::io::cameras::gs_json::write_gs_json;
+use crate::io::checkpoint;
 use crate::io::dataset::{Dataset, DatasetOptions, MaskMode, load_dataset};
 use crate::io::detect::FileFormat;
-use crate::io::write_output;
 use crate::model::rng::seeded;
 use crate::model::{Camera, PointCloud, rig};
-use crate::train::checkpoint::{decode, encode};
 use crate::train::gaussians::init::{init_gaussians, random_points};
 use crate::train::gaussians::{GaussianParams, GaussianTrainer, Regularize};
 use crate::train::photometric::Eval;
-use crate::train::schedule::split;
+use crate::train::session::{self, Event, Outcome};
 use crate::train::trainer::Trainer;
 use crate::train::triangles::init::{InitParams, init_triangles};
 use crate::train::triangles::{Preset, TriangleParams, TriangleTrainer};
@@ -242,21 +241,8 @@ fn count_arg(s: &str) -> Result<usize, String> {
     usize::try_from(v).map_err(|_| format!("{s} is too large for this machine"))
 }
 
-fn read_json(path: &Path) -> anyhow::Result<Value> {
-    let b = crate::io::source::read_file(path)
-        .with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_slice(&b).with_context(|| format!("{}: not valid JSON", path.display()))
-}
-
 fn mkdir(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
-}
-
-fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    write_output(path, |w| {
-        w.write_all(bytes).map_err(crate::io::source::werr)
-    })
-    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// `train` entry point.
@@ -312,15 +298,8 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
         None => format!("{} at --downscale {}", a.data.display(), a.downscale),
     })?;
     check_masks_cover(&data)?;
-    let (train, test) = split(data.views.len(), a.test_every);
-    if train.is_empty() {
-        bail!(
-            "all {} views of {} are held out (--test-every {}): nothing to train on",
-            data.views.len(),
-            a.data.display(),
-            a.test_every
-        );
-    }
+    let (train, test) = session::prepare_split(data.views.len(), a.test_every)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.data.display()))?;
     let centres: Vec<[f64; 3]> = train
         .iter()
         .map(|&i| data.views[i].camera.center().to_array())
@@ -429,22 +408,15 @@ fn bounding_box(centres: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
-/// The checkpoint read for `--resume`: (model file, state.json, step,
-/// groups). `kind` is "triangles" or "gaussians".
-fn read_checkpoint(
-    dir: &Path,
-    kind: &str,
-) -> anyhow::Result<(
-    PathBuf,
-    Value,
-    u64,
-    Vec<crate::train::checkpoint::GroupState>,
-)> {
-    let ck = dir.join("checkpoint");
-    // The run advances this checkpoint (often in the same output folder).
-    crate::io::transaction::note_replaceable(&ck);
-    let state = read_json(&ck.join("state.json"))?;
-    let got = state.get("model").and_then(Value::as_str).unwrap_or("");
+/// The checkpoint read for `--resume`, which must be of a `train {kind}`
+/// run (`kind` is "triangles" or "gaussians").
+fn read_checkpoint(dir: &Path, kind: &str) -> anyhow::Result<checkpoint::Saved> {
+    let saved = checkpoint::read(dir)?;
+    let got = saved
+        .state
+        .get("model")
+        .and_then(Value::as_str)
+        .unwrap_or("");
     if got != kind {
         bail!(
             "{}: the checkpoint is of a {} run, not `train {kind}` (resume with the same model)",
@@ -452,82 +424,36 @@ fn read_checkpoint(
             if got.is_empty() { "non-`train`" } else { got }
         );
     }
-    let opt_path = ck.join("optimizer.bin");
-    let opt = crate::io::source::read_file(&opt_path)
-        .with_context(|| format!("reading {}", opt_path.display()))?;
-    let (step, groups) = decode(&opt_path.display().to_string(), &opt)?;
-    Ok((ck.join("model.ply"), state, step, groups))
+    Ok(saved)
 }
 
-/// What the loop ends with.
-struct LoopResult {
-    evals: Vec<Eval>,
-    start: u64,
-    loop_s: f64,
-    /// The loss of the last step, `None` when this run took no step
-    /// (`--iterations` or `--stop-at` at the checkpoint's iteration).
-    last_loss: Option<f64>,
-}
-
+/// The training session of `t` ([`session::run`]), with a progress bar.
 fn train_loop(
     t: &mut dyn Trainer,
     p: &Prepared,
     a: &DataArgs,
     iterations: u64,
-    mut evals: Vec<Eval>,
+    evals: Vec<Eval>,
     label: &'static str,
-) -> anyhow::Result<LoopResult> {
-    let views = &p.data.views;
-    if !p.test.is_empty() && evals.is_empty() {
-        evals.push(t.eval(views, &p.test));
-    }
-    let start = t.iterations_done();
-    let end = a.stop_at.map_or(iterations, |s| s.clamp(start, iterations));
-    let pb = a.common.progress(end - start, label);
-    let t_loop = std::time::Instant::now();
-    let mut last_loss = None;
-    while t.iterations_done() < end {
-        // the loss every iteration, every parameter before each evaluation
-        // and at the end (train::finite)
-        let st = t
-            .step_checked(views, &p.train)
-            .map_err(|m| anyhow::anyhow!("{label}: {m}"))?;
-        last_loss = Some(st.loss);
-        pb.inc(1);
-        let at = t.iterations_done();
-        if at.is_multiple_of(10) {
-            let rate = (at - start) as f64 / t_loop.elapsed().as_secs_f64().max(1e-9);
-            pb.set_message(format!(
-                "loss {:.4}  PSNR {:.2}  {} primitives  {rate:.2} it/s",
-                st.loss, st.psnr, st.count
-            ));
-        }
-        if !p.test.is_empty()
-            && a.eval_every > 0
-            && at.is_multiple_of(a.eval_every)
-            && at < iterations
-        {
-            t.check_finite()
-                .map_err(|m| anyhow::anyhow!("{label}: {m}"))?;
-            evals.push(t.eval(views, &p.test));
-        }
-    }
-    t.check_finite()
-        .map_err(|m| anyhow::anyhow!("{label}: {m}"))?;
-    let finished = t.iterations_done() == iterations;
-    if !p.test.is_empty()
-        && evals.last().map(|e| e.iteration) != Some(t.iterations_done())
-        && finished
-    {
-        evals.push(t.eval(views, &p.test));
-    }
-    pb.finish_and_clear();
-    Ok(LoopResult {
-        evals,
-        start,
-        loop_s: t_loop.elapsed().as_secs_f64(),
-        last_loss,
-    })
+) -> anyhow::Result<Outcome> {
+    let views = session::Views {
+        all: &p.data.views,
+        train: &p.train,
+        test: &p.test,
+    };
+    let schedule = session::Schedule {
+        iterations,
+        stop_at: a.stop_at,
+        eval_every: a.eval_every,
+    };
+    let mut bar = a.common.loop_bar(label);
+    let r = session::run(t, views, schedule, evals, label, &mut |e| match e {
+        Event::Start { start, end } => bar.start(end - start),
+        Event::Step { iteration, .. } => bar.step(iteration, || e.status()),
+        Event::Eval(_) => {}
+    });
+    bar.finish();
+    r.map_err(anyhow::Error::msg)
 }
 
 /// cfg_args as 3DGS writes it (a Python Namespace repr).
@@ -554,27 +480,22 @@ fn write_common(
     t: &dyn Trainer,
     kind: &str,
     settings: &Value,
-    r: &LoopResult,
+    r: &Outcome,
     sh_degree: usize,
     t0: std::time::Instant,
 ) -> anyhow::Result<Value> {
     let cams: Vec<Camera> = p.data.views.iter().map(|v| v.camera.clone()).collect();
     write_gs_json(&dir.join("cameras.json"), &cams)?;
-    write_bytes(&dir.join("cfg_args"), cfg_args(a, sh_degree).as_bytes())?;
+    checkpoint::write_bytes(&dir.join("cfg_args"), cfg_args(a, sh_degree).as_bytes())?;
     save_points(
         &dir.join("input.ply"),
         &p.points,
         crate::io::ply::header::Format::BinaryLittleEndian,
     )?;
-    let ck = dir.join("checkpoint");
     let (step, groups) = t.state();
-    write_bytes(&ck.join("optimizer.bin"), &encode(step, &groups))?;
     let state = json!({"format": "splatkit-train-checkpoint-1", "model": kind, "iteration": step,
                        "settings": settings, "evals": r.evals});
-    write_bytes(
-        &ck.join("state.json"),
-        serde_json::to_string_pretty(&state)?.as_bytes(),
-    )?;
+    checkpoint::write(dir, step, &groups, &state)?;
     let done = t.iterations_done() - r.start;
     let v0 = &p.data.views[0].camera;
     let summary = json!({
@@ -598,10 +519,7 @@ fn write_common(
         "evals": r.evals,
         "settings": settings,
     });
-    write_bytes(
-        &dir.join("metrics.json"),
-        serde_json::to_string_pretty(&summary)?.as_bytes(),
-    )?;
+    checkpoint::write_json(&dir.join("metrics.json"), &summary)?;
     Ok(summary)
 }
 
@@ -609,7 +527,7 @@ fn report(
     a: &DataArgs,
     kind: &str,
     summary: &Value,
-    r: &LoopResult,
+    r: &Outcome,
     count: usize,
 ) -> anyhow::Result<()> {
     let done = summary["iterations_this_run"].as_u64().unwrap_or(0);
@@ -650,19 +568,17 @@ fn names(p: &Prepared) -> Vec<String> {
     p.data.views.iter().map(|v| v.camera.name.clone()).collect()
 }
 
-fn check_resume(state: &Value, settings: &Value, dir: &Path) -> anyhow::Result<Vec<Eval>> {
-    if state.get("settings") != Some(settings) {
-        bail!(
+fn check_resume(ck: &checkpoint::Saved, settings: &Value, dir: &Path) -> anyhow::Result<Vec<Eval>> {
+    let name = ck.state_file.display().to_string();
+    session::resume_evals(&ck.state, settings, &name).map_err(|e| match e {
+        Some(m) => anyhow::anyhow!(m),
+        None => anyhow::anyhow!(
             "{}: the checkpoint was made with other settings or data (DATA, --iterations, \
              --downscale/--resolution, masks, --test-every, --white-background, --seed and the \
              model options must match the first run)",
             dir.display()
-        );
-    }
-    match state.get("evals") {
-        Some(e) => serde_json::from_value(e.clone()).context("checkpoint state.json: evals"),
-        None => Ok(Vec::new()),
-    }
+        ),
+    })
 }
 
 fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
@@ -688,11 +604,11 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
         "init_points": a.init_points});
     let (mut t, evals) = match &a.resume {
         Some(dir) => {
-            let (model, state, step, groups) = read_checkpoint(dir, "triangles")?;
-            let evals = check_resume(&state, &settings, dir)?;
-            let soup = load_soup_finite(&model, "train triangles --resume")?;
+            let ck = read_checkpoint(dir, "triangles")?;
+            let evals = check_resume(&ck, &settings, dir)?;
+            let soup = load_soup_finite(&ck.model, "train triangles --resume")?;
             let mut t = TriangleTrainer::new(soup, params);
-            t.restore(step, groups)
+            t.restore(ck.step, ck.groups)
                 .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
             (t, evals)
         }
@@ -730,14 +646,18 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     let model = t.model();
     let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
     mkdir(&it_dir)?;
-    mkdir(&dir.join("checkpoint"))?;
+    mkdir(&dir.join(checkpoint::DIR))?;
     save_soup(
         &it_dir.join("point_cloud_state_dict.pt"),
         &model,
         FileFormat::TorchPt,
     )?;
     save_soup(&it_dir.join("triangles.ply"), &model, FileFormat::Ply)?;
-    save_soup(&dir.join("checkpoint/model.ply"), &model, FileFormat::Ply)?;
+    save_soup(
+        &dir.join(checkpoint::DIR).join(checkpoint::MODEL),
+        &model,
+        FileFormat::Ply,
+    )?;
     let summary = write_common(
         &dir,
         a,
@@ -789,11 +709,11 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
         "init_points": a.init_points});
     let (mut t, evals) = match &a.resume {
         Some(dir) => {
-            let (model, state, step, groups) = read_checkpoint(dir, "gaussians")?;
-            let evals = check_resume(&state, &settings, dir)?;
-            let g = load_gaussians_finite(&model, "train gaussians --resume")?;
+            let ck = read_checkpoint(dir, "gaussians")?;
+            let evals = check_resume(&ck, &settings, dir)?;
+            let g = load_gaussians_finite(&ck.model, "train gaussians --resume")?;
             let mut t = GaussianTrainer::new(g, params);
-            t.restore(step, groups)
+            t.restore(ck.step, ck.groups)
                 .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
             (t, evals)
         }
@@ -816,9 +736,9 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
     let dir = stage.path().to_path_buf();
     let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
     mkdir(&it_dir)?;
-    mkdir(&dir.join("checkpoint"))?;
+    mkdir(&dir.join(checkpoint::DIR))?;
     save_gaussians(&it_dir.join("point_cloud.ply"), &t.model)?;
-    save_gaussians(&dir.join("checkpoint/model.ply"), &t.model)?;
+    save_gaussians(&dir.join(checkpoint::DIR).join(checkpoint::MODEL), &t.model)?;
     let summary = write_common(
         &dir,
         a,

@@ -11,7 +11,7 @@
 
 use splatkit_render::optim::{Adam, LrSchedule, ParamGroup};
 
-use super::checkpoint::GroupState;
+use crate::model::optim_state::GroupState;
 
 /// Where a row of the edited model comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

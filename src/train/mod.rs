@@ -7,18 +7,19 @@
 //! - [`schedule`]: the seeded view order and the train / test split;
 //! - [`sugar`]: SuGaR's coarse-stage regularisers (opacity entropy,
 //!   density and SDF regularisers on sampled points) with raw gradients;
-//! - [`checkpoint`]: optimiser state on disk, so `--resume` continues bit
-//!   for bit;
+//! - [`session`]: the one driver of every trainer (the loop, evaluations,
+//!   the finiteness guards, progress events);
+//! - [`trainer`]: the interface every model's trainer implements;
 //! - [`finite`]: the loops' guards against a loss or parameter that becomes
 //!   NaN or infinite (what is checked when).
 
-pub mod checkpoint;
 pub mod finite;
 pub mod gaussians;
 pub mod groups;
 pub mod photometric;
 pub mod refine;
 pub mod schedule;
+pub mod session;
 pub mod sugar;
 pub mod trainer;
 pub mod triangles;

@@ -24,12 +24,12 @@ use splatkit_render::gaussian::{RasterSettings, rasterize, render};
 use splatkit_render::gaussian_grad;
 use splatkit_render::optim::{Adam, LrSchedule, ParamGroup};
 
-use super::checkpoint::GroupState;
 pub use super::photometric::Eval;
 use super::photometric::{evaluate, loss_and_grad, psnr_of};
 use super::schedule::view_at;
 use crate::geom::binding::grad::{NormalConsistency, backward};
 use crate::geom::binding::to_raster;
+use crate::model::optim_state::GroupState;
 use crate::model::{BoundGaussians, View};
 
 /// SuGaR's learning rates (see the module docs).
@@ -245,21 +245,6 @@ impl Refiner {
         };
         self.iteration += 1;
         stats
-    }
-
-    /// [`Refiner::step`], then the per-iteration guard of
-    /// [`super::finite`]: `Err` naming the iteration (and the first
-    /// non-finite parameter, if any) when the loss is not finite.
-    pub fn step_checked(&mut self, views: &[View], train: &[usize]) -> Result<StepStats, String> {
-        let st = self.step(views, train);
-        super::finite::check_loss(st.iteration + 1, st.loss, || self.non_finite())?;
-        Ok(st)
-    }
-
-    /// The parameter guard (before evaluations and at the end of a run):
-    /// `Err` naming the iteration and the first non-finite parameter.
-    pub fn check_finite(&self) -> Result<(), String> {
-        super::finite::check_params(self.iteration, self.non_finite())
     }
 
     /// The first NaN or infinite parameter (mesh vertices, complex

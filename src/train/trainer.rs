@@ -1,12 +1,13 @@
-//! The seam between the training loop (the `train` op: views, progress,
-//! evaluation, checkpoints) and the models: both trainers implement
-//! [`Trainer`], so one loop drives Triangle Splatting and 3DGS / SuGaR, and
-//! a new model (or a GPU backend of one) plugs in by implementing it.
+//! The seam between the training session ([`super::session`]: the loop,
+//! evaluations, guards, progress) and the models: Triangle Splatting, 3DGS /
+//! SuGaR and the refiner of bound Gaussians implement [`Trainer`], so one
+//! session drives them all, and a new model (or a GPU backend of one) plugs
+//! in by implementing it (docs/ARCHITECTURE.md, "Where a new thing goes").
 
-use super::checkpoint::GroupState;
 use super::finite;
 use super::photometric::Eval;
 use crate::model::View;
+use crate::model::optim_state::GroupState;
 
 /// The common summary of one iteration.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -55,40 +56,90 @@ pub trait Trainer {
     }
 }
 
-/// The two trainers expose the same inherent methods; `$count` names the
-/// model field whose length is the primitive count (`$model`).
-macro_rules! impl_trainer {
-    ($t:ty, $model:ident) => {
-        impl Trainer for $t {
-            fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
-                let s = self.step(views, train);
-                Progress {
-                    loss: s.loss,
-                    psnr: s.psnr,
-                    count: s.count,
-                }
-            }
-            fn eval(&self, views: &[View], test: &[usize]) -> Eval {
-                self.evaluate(views, test)
-            }
-            fn iterations_done(&self) -> u64 {
-                self.iteration()
-            }
-            fn count(&self) -> usize {
-                self.$model.len()
-            }
-            fn state(&self) -> (u64, Vec<GroupState>) {
-                self.optimizer_state()
-            }
-            fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
-                self.restore(step, groups)
-            }
-            fn first_non_finite(&self) -> Option<String> {
-                self.non_finite()
-            }
+impl Trainer for super::triangles::TriangleTrainer {
+    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
+        let s = self.step(views, train);
+        Progress {
+            loss: s.loss,
+            psnr: s.psnr,
+            count: s.count,
         }
-    };
+    }
+    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
+        self.evaluate(views, test)
+    }
+    fn iterations_done(&self) -> u64 {
+        self.iteration()
+    }
+    fn count(&self) -> usize {
+        self.soup.len()
+    }
+    fn state(&self) -> (u64, Vec<GroupState>) {
+        self.optimizer_state()
+    }
+    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+        self.restore(step, groups)
+    }
+    fn first_non_finite(&self) -> Option<String> {
+        self.non_finite()
+    }
 }
 
-impl_trainer!(super::triangles::TriangleTrainer, soup);
-impl_trainer!(super::gaussians::GaussianTrainer, model);
+impl Trainer for super::gaussians::GaussianTrainer {
+    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
+        let s = self.step(views, train);
+        Progress {
+            loss: s.loss,
+            psnr: s.psnr,
+            count: s.count,
+        }
+    }
+    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
+        self.evaluate(views, test)
+    }
+    fn iterations_done(&self) -> u64 {
+        self.iteration()
+    }
+    fn count(&self) -> usize {
+        self.model.len()
+    }
+    fn state(&self) -> (u64, Vec<GroupState>) {
+        self.optimizer_state()
+    }
+    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+        self.restore(step, groups)
+    }
+    fn first_non_finite(&self) -> Option<String> {
+        self.non_finite()
+    }
+}
+
+/// The refiner of bound Gaussians: a primitive is a Gaussian.
+impl Trainer for super::refine::Refiner {
+    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
+        let s = self.step(views, train);
+        Progress {
+            loss: s.loss,
+            psnr: s.psnr,
+            count: self.model.len(),
+        }
+    }
+    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
+        self.evaluate(views, test)
+    }
+    fn iterations_done(&self) -> u64 {
+        self.iteration()
+    }
+    fn count(&self) -> usize {
+        self.model.len()
+    }
+    fn state(&self) -> (u64, Vec<GroupState>) {
+        self.optimizer_state()
+    }
+    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+        self.restore(step, groups)
+    }
+    fn first_non_finite(&self) -> Option<String> {
+        self.non_finite()
+    }
+}

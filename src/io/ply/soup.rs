@@ -142,11 +142,7 @@ pub fn soup_to_ply(s: &TriangleSoup, format: Format) -> Result<Ply> {
     for c in 0..3 {
         f.push(
             ["red", "green", "blue"][c],
-            u8_col(
-                s.sh_dc
-                    .iter()
-                    .map(|d| (splatkit_render::sh::sh_to_rgb(d[c]).clamp(0.0, 1.0) * 255.0) as u8),
-            ),
+            u8_col((0..s.len()).map(|i| s.dc_rgb8(i)[c])),
         );
     }
     let col = |x: &[f32]| Column::Scalar(ScalarData::F32(x.to_vec()));

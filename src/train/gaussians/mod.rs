@@ -44,7 +44,6 @@ use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
 
 use self::adc::{AdcParams, AdcState, densify_and_prune, reset_opacity};
-use super::checkpoint::{GroupState, find_values};
 use super::groups::{GroupSpec, Groups, Source, kept, split_sh_grad};
 use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of, view_for_step};
 use super::schedule::view_at;
@@ -53,6 +52,7 @@ use super::sugar::{
     sdf_regularizer, visible_candidates,
 };
 use crate::model::gaussians::sigmoid;
+use crate::model::optim_state::{GroupState, find_values};
 use crate::model::rng::stream;
 use crate::model::{Gaussians, View};
 

@@ -48,11 +48,11 @@ use splatkit_render::triangle_grad::{self, AuxGrads, TriangleGrads};
 use splatkit_render::triangle_stats::triangle_stats;
 
 use self::mcmc::{McmcParams, McmcState};
-use super::checkpoint::{GroupState, find_values};
 use super::groups::{GroupSpec, Groups, Source, split_sh_grad};
 use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of, view_for_step};
 use super::schedule::view_at;
 use crate::model::gaussians::sigmoid;
+use crate::model::optim_state::{GroupState, find_values};
 use crate::model::rng::stream;
 use crate::model::{TriangleSoup, View};
 

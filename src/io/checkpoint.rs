@@ -1,51 +1,101 @@
-//! Optimiser state as bytes, for checkpoint folders (the op writes them
-//! through `io`): a small header, then per parameter group its name, length,
-//! first and second moments (f32 little-endian).
+//! Training checkpoints on disk, in one place: the folder layout, the
+//! `state.json` every trainer writes, and the binary optimiser state.
 //!
-//! Layout: magic `SPKADAM1`, u64 step, u32 group count; per group: u32 name
-//! length, the UTF-8 name, u64 length n, n × f32 m, n × f32 v.
+//! A run's output folder holds `checkpoint/` with
+//! - [`MODEL`] (`model.ply`): the model, written by the op in its own
+//!   format (triangle soup, 3DGS or bound-Gaussian PLY);
+//! - [`OPTIMIZER`] (`optimizer.bin`): the optimiser and strategy state
+//!   ([`GroupState`]s), encoded by [`encode`];
+//! - [`STATE`] (`state.json`): `format`, `iteration`, the run's
+//!   `settings` (a resume must match them) and the held-out `evals`; a
+//!   `train` checkpoint also names its `model`.
+//!
+//! `optimizer.bin` layout: magic `SPKADAM1`, u64 step, u32 group count; per
+//! group: u32 name length, the UTF-8 name, u64 length n, n × f32 m, n × f32
+//! v (little-endian).
 
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+
+use crate::io::source::{read_file, werr};
+use crate::io::write_output;
+pub use crate::model::optim_state::GroupState;
 use crate::{Error, Result};
 
+/// The checkpoint folder inside a run's output folder.
+pub const DIR: &str = "checkpoint";
+/// The model file in [`DIR`].
+pub const MODEL: &str = "model.ply";
+/// The optimiser state in [`DIR`].
+pub const OPTIMIZER: &str = "optimizer.bin";
+/// The run state in [`DIR`].
+pub const STATE: &str = "state.json";
+
+/// A checkpoint read back for `--resume`.
+#[derive(Clone, Debug)]
+pub struct Saved {
+    /// The model file (not read here: its format is the op's).
+    pub model: PathBuf,
+    /// `state.json`'s path, for messages.
+    pub state_file: PathBuf,
+    /// `state.json`.
+    pub state: Value,
+    /// The optimiser step.
+    pub step: u64,
+    /// The optimiser and strategy state.
+    pub groups: Vec<GroupState>,
+}
+
+/// Reads `run_dir/checkpoint/`'s `state.json` and `optimizer.bin` (the
+/// model file is left to the caller). The folder is noted as one the run
+/// may replace: a resumed run advances this checkpoint, often in the same
+/// output folder. Errors name the file.
+pub fn read(run_dir: &Path) -> Result<Saved> {
+    let ck = run_dir.join(DIR);
+    crate::io::transaction::note_replaceable(&ck);
+    let state_file = ck.join(STATE);
+    let state = read_json(&state_file)?;
+    let opt_path = ck.join(OPTIMIZER);
+    let (step, groups) = decode(&opt_path.display().to_string(), &read_file(&opt_path)?)?;
+    Ok(Saved {
+        model: ck.join(MODEL),
+        state_file,
+        state,
+        step,
+        groups,
+    })
+}
+
+/// Writes `run_dir/checkpoint/`'s `optimizer.bin` and `state.json`
+/// (`state` as pretty JSON); the caller writes [`MODEL`] beside them.
+pub fn write(run_dir: &Path, step: u64, groups: &[GroupState], state: &Value) -> Result<()> {
+    let ck = run_dir.join(DIR);
+    std::fs::create_dir_all(&ck).map_err(|e| Error::io(ck.display(), e))?;
+    write_bytes(&ck.join(OPTIMIZER), &encode(step, groups))?;
+    write_json(&ck.join(STATE), state)
+}
+
+/// A JSON file, decoded; errors name the file.
+pub fn read_json(path: &Path) -> Result<Value> {
+    let b = read_file(path)?;
+    serde_json::from_slice(&b)
+        .map_err(|e| Error::format(path.display(), format!("not valid JSON: {e}")))
+}
+
+/// Writes `value` as pretty JSON to `path` (through [`write_output`]).
+pub fn write_json(path: &Path, value: &Value) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)
+        .map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;
+    write_bytes(path, text.as_bytes())
+}
+
+/// Writes `bytes` to `path` (through [`write_output`]).
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_output(path, |w| w.write_all(bytes).map_err(werr))
+}
+
 const MAGIC: &[u8; 8] = b"SPKADAM1";
-
-/// One group's saved moments.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GroupState {
-    pub name: String,
-    pub m: Vec<f32>,
-    pub v: Vec<f32>,
-}
-
-impl GroupState {
-    /// A non-optimiser array (densification statistics) stored as a group:
-    /// the values in `m`, zeros in `v`.
-    pub fn values(name: &str, m: Vec<f32>) -> GroupState {
-        GroupState {
-            name: name.into(),
-            v: vec![0.0; m.len()],
-            m,
-        }
-    }
-}
-
-/// The values of the [`GroupState::values`] group `name` among `groups`,
-/// which must hold `len` of them; `model` names the run kind in the error.
-pub fn find_values(
-    groups: &[GroupState],
-    name: &str,
-    len: usize,
-    model: &str,
-) -> Result<Vec<f32>, String> {
-    let g = groups
-        .iter()
-        .find(|g| g.name == name)
-        .ok_or_else(|| format!("the checkpoint has no {name} (not a {model} training?)"))?;
-    if g.m.len() != len {
-        return Err(format!("{name} holds {} values, expected {len}", g.m.len()));
-    }
-    Ok(g.m.clone())
-}
 
 /// Encodes the step and the groups.
 pub fn encode(step: u64, groups: &[GroupState]) -> Vec<u8> {
