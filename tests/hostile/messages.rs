@@ -289,3 +289,38 @@ fn resume_with_bad_evals_names_the_state_file() {
     fails(&o, 1, &["checkpoint/state.json", "evals"]);
     assert_eq!(snapshot(dir.path()), before);
 }
+
+/// A camera file whose rotations a reader accepts (within its 1e-4
+/// tolerance) is also written back: `train` writes the training cameras to
+/// OUT/cameras.json, and a rotation 4e-6 off orthonormal used to be refused
+/// there by the writers' tighter 1e-6 check ("camera 'v00': rotation is not
+/// orthonormal", naming no file; found by the command fuzzer).
+#[test]
+fn cameras_a_reader_accepts_are_written_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    write_sphere_dataset(&data, 4, 16, 20).unwrap();
+    let path = data.join("cameras.json");
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    // row 0 scaled by 1 + 4e-6: |RᵀR − I| ≥ 8e-6 · max r0j² ≥ 2.7e-6
+    for r in v[0]["rotation"][0].as_array_mut().unwrap() {
+        *r = serde_json::json!(r.as_f64().unwrap() * (1.0 + 4e-6));
+    }
+    std::fs::write(&path, v.to_string()).unwrap();
+    let out = dir.path().join("run");
+    let o = run(
+        "train",
+        &[
+            "triangles",
+            s(&data),
+            "-o",
+            s(&out),
+            "--iterations",
+            "2",
+            "-q",
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("cameras.json").is_file());
+}

@@ -407,10 +407,14 @@ fn load(path: &Path) -> Result<Loaded> {
 }
 
 /// Checks that every camera of `cameras` has a proper rotation (used by the
-/// writers of other formats, which store rotations as matrices).
+/// writers of other formats, which store rotations as matrices), to the
+/// readers' tolerance ([`super::gs_json::ROTATION_TOL`]), so a camera file
+/// a reader accepted is also written back (a run that reads cameras and
+/// writes them, as `train` does, never fails at the end over a rotation it
+/// took at the start).
 pub(crate) fn check_camera_rotations(cameras: &[Camera]) -> Result<()> {
     for c in cameras {
-        check_rotation(c.rotation, 1e-6)
+        check_rotation(c.rotation, super::gs_json::ROTATION_TOL)
             .map_err(|e| Error::invalid(format!("camera '{}': rotation {e}", c.name)))?;
     }
     Ok(())
