@@ -56,90 +56,44 @@ pub trait Trainer {
     }
 }
 
-impl Trainer for super::triangles::TriangleTrainer {
-    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
-        let s = self.step(views, train);
-        Progress {
-            loss: s.loss,
-            psnr: s.psnr,
-            count: s.count,
+/// Implements [`Trainer`] for a trainer type whose inherent methods have
+/// these meanings: `step` (one iteration, returning its loss and PSNR),
+/// `evaluate`, `iteration`, `optimizer_state`, `restore`, `non_finite`;
+/// `$primitives` names the field whose length is the primitive count.
+macro_rules! impl_trainer {
+    ($t:ty, $primitives:ident) => {
+        impl Trainer for $t {
+            fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
+                let s = self.step(views, train);
+                Progress {
+                    loss: s.loss,
+                    psnr: s.psnr,
+                    count: self.$primitives.len(),
+                }
+            }
+            fn eval(&self, views: &[View], test: &[usize]) -> Eval {
+                self.evaluate(views, test)
+            }
+            fn iterations_done(&self) -> u64 {
+                self.iteration()
+            }
+            fn count(&self) -> usize {
+                self.$primitives.len()
+            }
+            fn state(&self) -> (u64, Vec<GroupState>) {
+                self.optimizer_state()
+            }
+            fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+                self.restore(step, groups)
+            }
+            fn first_non_finite(&self) -> Option<String> {
+                self.non_finite()
+            }
         }
-    }
-    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
-        self.evaluate(views, test)
-    }
-    fn iterations_done(&self) -> u64 {
-        self.iteration()
-    }
-    fn count(&self) -> usize {
-        self.soup.len()
-    }
-    fn state(&self) -> (u64, Vec<GroupState>) {
-        self.optimizer_state()
-    }
-    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
-        self.restore(step, groups)
-    }
-    fn first_non_finite(&self) -> Option<String> {
-        self.non_finite()
-    }
+    };
 }
 
-impl Trainer for super::gaussians::GaussianTrainer {
-    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
-        let s = self.step(views, train);
-        Progress {
-            loss: s.loss,
-            psnr: s.psnr,
-            count: s.count,
-        }
-    }
-    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
-        self.evaluate(views, test)
-    }
-    fn iterations_done(&self) -> u64 {
-        self.iteration()
-    }
-    fn count(&self) -> usize {
-        self.model.len()
-    }
-    fn state(&self) -> (u64, Vec<GroupState>) {
-        self.optimizer_state()
-    }
-    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
-        self.restore(step, groups)
-    }
-    fn first_non_finite(&self) -> Option<String> {
-        self.non_finite()
-    }
-}
-
-/// The refiner of bound Gaussians: a primitive is a Gaussian.
-impl Trainer for super::refine::Refiner {
-    fn step_once(&mut self, views: &[View], train: &[usize]) -> Progress {
-        let s = self.step(views, train);
-        Progress {
-            loss: s.loss,
-            psnr: s.psnr,
-            count: self.model.len(),
-        }
-    }
-    fn eval(&self, views: &[View], test: &[usize]) -> Eval {
-        self.evaluate(views, test)
-    }
-    fn iterations_done(&self) -> u64 {
-        self.iteration()
-    }
-    fn count(&self) -> usize {
-        self.model.len()
-    }
-    fn state(&self) -> (u64, Vec<GroupState>) {
-        self.optimizer_state()
-    }
-    fn restore_state(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
-        self.restore(step, groups)
-    }
-    fn first_non_finite(&self) -> Option<String> {
-        self.non_finite()
-    }
-}
+impl_trainer!(super::triangles::TriangleTrainer, soup);
+impl_trainer!(super::gaussians::GaussianTrainer, model);
+// the refiner of bound Gaussians: a primitive is a Gaussian
+impl_trainer!(super::refine::Refiner, model);
