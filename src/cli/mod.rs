@@ -1,4 +1,4 @@
-//! Conventions shared by every command (DESIGN.md "CLI conventions"):
+//! Conventions shared by every command (docs/ARCHITECTURE.md, "CLI conventions"):
 //! `-` for stdin/stdout, `--json`, `--quiet`, `--threads`, progress bars on
 //! stderr that stay silent when stderr is not a terminal, exit codes
 //! 0 (success) / 1 (error) / 2 (usage error, from clap).

@@ -3,7 +3,7 @@
 //! `.npy` and 16-bit PNG), alpha and normal images, and optionally compares
 //! the colour renders with ground-truth images (PSNR, SSIM).
 //!
-//! Conventions: cameras in OpenCV axes (DESIGN.md); depth is camera z in
+//! Conventions: cameras in OpenCV axes (docs/ARCHITECTURE.md); depth is camera z in
 //! scene units (median depth for splats by default, as 2DGS and Triangle
 //! Splatting use; `--depth expected` for Σwz/Σw, `--depth-ratio r` for their
 //! blend (1 − r)·expected + r·median); the 16-bit PNG stores
