@@ -496,7 +496,7 @@ fn write_common(
     let state = json!({"format": "splatkit-train-checkpoint-1", "model": kind, "iteration": step,
                        "settings": settings, "evals": r.evals});
     checkpoint::write(dir, step, &groups, &state)?;
-    let done = t.iterations_done() - r.start;
+    let done = r.done(t);
     let v0 = &p.data.views[0].camera;
     let summary = json!({
         "model": kind,
@@ -514,7 +514,7 @@ fn write_common(
         "iterations_this_run": done,
         "seconds": t0.elapsed().as_secs_f64(),
         "loop_seconds": r.loop_s,
-        "iterations_per_second": done as f64 / r.loop_s.max(1e-9),
+        "iterations_per_second": r.rate(t),
         "final_loss": r.last_loss,
         "evals": r.evals,
         "settings": settings,

@@ -3,7 +3,7 @@
 //! whose value has no meaning is refused when parsed (exit 2), before any
 //! input is read or output written.
 
-use super::common::{cameras_file, fails, mesh_file, run, s, snapshot, triangle};
+use super::common::{cameras_file, fails, mesh_file, run, s, snapshot, succeeds, triangle};
 
 use splatkit::io::any::save;
 use splatkit::io::detect::FileFormat;
@@ -243,49 +243,34 @@ fn bad_flag_values_fail_at_parse() {
     }
 }
 
+/// `train MODEL DATA -o OUT --iterations 2 -q` plus `extra`, on a 4-view
+/// sphere data set in `dir/data` (written unless present); `dir/out` is OUT.
+fn train_tiny(dir: &std::path::Path, model: &str, extra: &[&str]) -> std::process::Output {
+    let data = dir.join("data");
+    if !data.exists() {
+        write_sphere_dataset(&data, 4, 16, 20).unwrap();
+    }
+    let out = dir.join("out");
+    let mut a = vec![model, s(&data), "-o", s(&out), "--iterations", "2", "-q"];
+    a.extend(extra);
+    run("train", &a, None)
+}
+
 /// A checkpoint whose `state.json` has undecodable `evals` is named in the
 /// message (the fuzzer found "checkpoint state.json: evals: missing field
 /// `iteration`", which named no file); the folder is left as it was.
 #[test]
 fn resume_with_bad_evals_names_the_state_file() {
     let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("data");
-    write_sphere_dataset(&data, 4, 16, 20).unwrap();
+    let o = train_tiny(dir.path(), "gaussians", &[]);
+    succeeds(&o);
     let out = dir.path().join("out");
-    let o = run(
-        "train",
-        &[
-            "gaussians",
-            s(&data),
-            "-o",
-            s(&out),
-            "--iterations",
-            "2",
-            "-q",
-        ],
-        None,
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let state = out.join("checkpoint/state.json");
     let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&state).unwrap()).unwrap();
     v["evals"] = serde_json::json!([{"psnr": 1.0}]);
     std::fs::write(&state, v.to_string()).unwrap();
     let before = snapshot(dir.path());
-    let o = run(
-        "train",
-        &[
-            "gaussians",
-            s(&data),
-            "-o",
-            s(&out),
-            "--iterations",
-            "2",
-            "--resume",
-            s(&out),
-            "-q",
-        ],
-        None,
-    );
+    let o = train_tiny(dir.path(), "gaussians", &["--resume", s(&out)]);
     fails(&o, 1, &["checkpoint/state.json", "evals"]);
     assert_eq!(snapshot(dir.path()), before);
 }
@@ -307,20 +292,7 @@ fn cameras_a_reader_accepts_are_written_back() {
         *r = serde_json::json!(r.as_f64().unwrap() * (1.0 + 4e-6));
     }
     std::fs::write(&path, v.to_string()).unwrap();
-    let out = dir.path().join("run");
-    let o = run(
-        "train",
-        &[
-            "triangles",
-            s(&data),
-            "-o",
-            s(&out),
-            "--iterations",
-            "2",
-            "-q",
-        ],
-        None,
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(out.join("cameras.json").is_file());
+    let o = train_tiny(dir.path(), "triangles", &[]);
+    succeeds(&o);
+    assert!(dir.path().join("out/cameras.json").is_file());
 }
