@@ -26,6 +26,7 @@ use splatkit::model::View;
 use splatkit::testing::{cameras_around, uv_sphere};
 use splatkit::train::photometric::loss_and_grad;
 use splatkit::train::refine::{LearningRates, RefineParams, Refiner, spatial_lr_scale};
+use splatkit::train::trainer::Trainer;
 use splatkit_render::gaussian::{RasterSettings, rasterize, render};
 use splatkit_render::gaussian_grad;
 

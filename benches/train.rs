@@ -60,6 +60,7 @@ use splatkit::train::gaussians::{self, GaussianParams, GaussianTrainer};
 use splatkit::train::groups::{GroupSpec, Groups};
 use splatkit::train::photometric::{loss_and_grad_weighted, psnr_of};
 use splatkit::train::schedule::view_at;
+use splatkit::train::trainer::Trainer;
 use splatkit::train::triangles::init::{InitParams, init_triangles};
 use splatkit::train::triangles::mcmc::McmcState;
 use splatkit::train::triangles::{self, Preset, TriangleParams, TriangleTrainer, size_loss};
@@ -149,10 +150,6 @@ impl Profile {
             .map(|(k, v)| (k, v / iters as f64))
             .collect()
     }
-}
-
-fn flat<T: bytemuck::Pod>(v: &mut [T]) -> &mut [f32] {
-    bytemuck::cast_slice_mut(v)
 }
 
 fn cpu_model() -> String {
@@ -281,26 +278,22 @@ fn profile_triangles(
         prof.lap("backward");
         let stats = triangle_stats(&t3, &view.camera, &s, &state);
         prof.lap("per-triangle stats");
-        let (mut gv, mut g_dc, g_rest, mut g_o, g_s) = triangles::raw_grads(&soup, &g);
+        let mut pg = triangles::raw_grads(&soup, &g);
         // regularisers: opacity mean, size
         let nf = n.max(1) as f64;
         let _mean_o = (0..n).map(|i| soup.opacity(i) as f64).sum::<f64>() / nf;
-        for (i, go) in g_o.iter_mut().enumerate() {
+        for (i, go) in pg.opacity.iter_mut().enumerate() {
             let o = soup.opacity(i) as f64;
             *go += (p.lambda_opacity / nf * o * (1.0 - o)) as f32;
         }
         if iteration + 1 < p.at(25_000) {
-            size_loss(&soup.triangles, p.lambda_size, &mut gv);
+            size_loss(&soup.triangles, p.lambda_size, &mut pg.vertices);
         }
         prof.lap("raw grads + regularisers");
-        groups.step(0, flat(&mut soup.triangles), flat(&mut gv));
-        groups.step(1, flat(&mut soup.sh_dc), flat(&mut g_dc));
-        groups.step(2, &mut soup.sh_rest, &g_rest);
-        groups.step(3, &mut soup.opacity_raw, &g_o);
-        groups.step(4, &mut soup.sigma_raw, &g_s);
+        pg.apply(&mut groups, &mut soup);
         prof.lap("Adam (5 groups)");
         mcmc.observe(&stats);
-        drop((t3, img, state, g, stats, gv, g_dc, g_rest, g_o, g_s));
+        drop((t3, img, state, g, stats));
         drop((d_rgb, d_normal, d_depth));
         prof.lap("rest");
     }
@@ -372,18 +365,11 @@ fn profile_gaussians(
         }
         prof.lap("densification stats");
         // GaussianTrainer::apply
-        let (mut g_means, mut g_dc, g_rest, g_o, mut g_s, mut g_r) =
-            gaussians::raw_grads(&m, &gg, &reg, d);
+        let pg = gaussians::raw_grads(&m, &gg, &reg, d);
         prof.lap("raw grads + regularisers");
-        groups.step(0, flat(&mut m.means), flat(&mut g_means));
-        groups.step(1, flat(&mut m.sh_dc), flat(&mut g_dc));
-        groups.step(2, &mut m.sh_rest, &g_rest);
-        groups.step(3, &mut m.opacity_logits, &g_o);
-        groups.step(4, flat(&mut m.log_scales), flat(&mut g_s));
-        groups.step(5, flat(&mut m.rotations), flat(&mut g_r));
+        pg.apply(&mut groups, &mut m);
         prof.lap("Adam (6 groups)");
         drop((g3, img, state, gg, reg, d_rgb));
-        drop((g_means, g_dc, g_rest, g_o, g_s, g_r));
         prof.lap("rest");
     }
     prof.per_iter(iters)

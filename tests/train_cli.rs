@@ -30,8 +30,10 @@ fn train(model: &str, data: &Path, out: &Path, extra: &[&str]) -> std::process::
         "450",
         "--eval-every",
         "200",
-        "-q",
     ];
+    if !extra.contains(&"--verbose") {
+        a.push("-q");
+    }
     if model == "gaussians" {
         a.extend(["--regularize", "density", "--samples", "500"]);
     } else {
@@ -56,7 +58,8 @@ fn files(model: &str) -> Vec<&'static str> {
 /// rasterisers and reductions being thread-count independent, also across
 /// 1 and 2 threads); a run stopped at iteration 210 (after the first
 /// densification at 200) and resumed equals the uninterrupted one, byte for
-/// byte.
+/// byte. The 1-thread run is `--verbose`: it prints each strategy's edits
+/// at the iterations of the scaled schedule and writes the same bytes.
 #[test]
 fn deterministic_and_resume_exact() {
     let dir = tempfile::tempdir().unwrap();
@@ -66,7 +69,32 @@ fn deterministic_and_resume_exact() {
         let b = dir.path().join(format!("{model}_b"));
         let c = dir.path().join(format!("{model}_c"));
         succeeds(&train(model, &d, &a, &["-j", "2"]));
-        succeeds(&train(model, &d, &b, &["-j", "1"]));
+        let verbose = train(model, &d, &b, &["-j", "1", "--verbose"]);
+        succeeds(&verbose);
+        let log = String::from_utf8_lossy(&verbose.stderr);
+        // triangles: interval max(500·450/30000, 12 views, 200) = 200,
+        // densify before 25,000 → 375, prune after; Gaussians (SuGaR, 15,000
+        // reference iterations): ADC every 3 from 15 until 210, opacity
+        // reset every 90, SuGaR's prune at 270
+        let want: &[&str] = if model == "triangles" {
+            &[
+                "iteration 200: mcmc densify: ",
+                "iteration 400: mcmc prune: ",
+            ]
+        } else {
+            &[
+                "iteration 18: adc densify: ",
+                "iteration 90: adc opacity reset: ",
+                "iteration 270: sugar prune: ",
+            ]
+        };
+        for w in want {
+            assert!(log.contains(w), "{model}: no {w:?} in\n{log}");
+        }
+        assert!(
+            !log.contains("iteration 213: adc"),
+            "{model}: ADC after 210"
+        );
         succeeds(&train(model, &d, &c, &["-j", "2", "--stop-at", "210"]));
         assert!(c.join("checkpoint/optimizer.bin").is_file());
         succeeds(&train(model, &d, &c, &["-j", "2", "--resume", p(&c)]));

@@ -37,6 +37,15 @@ impl LoopBar {
         }
     }
 
+    /// Prints `line` on stderr above the bar (or plainly when the bar is
+    /// hidden or not started).
+    pub fn println(&self, line: &str) {
+        match &self.bar {
+            Some(b) if !b.is_hidden() => b.println(line),
+            _ => eprintln!("{line}"),
+        }
+    }
+
     /// Clears the bar.
     pub fn finish(&self) {
         if let Some(b) = &self.bar {

@@ -29,13 +29,17 @@ pub fn find_values(
     name: &str,
     len: usize,
     model: &str,
-) -> Result<Vec<f32>, String> {
-    let g = groups
-        .iter()
-        .find(|g| g.name == name)
-        .ok_or_else(|| format!("the checkpoint has no {name} (not a {model} training?)"))?;
+) -> crate::Result<Vec<f32>> {
+    let g = groups.iter().find(|g| g.name == name).ok_or_else(|| {
+        crate::Error::invalid(format!(
+            "the checkpoint has no {name} (not a {model} training?)"
+        ))
+    })?;
     if g.m.len() != len {
-        return Err(format!("{name} holds {} values, expected {len}", g.m.len()));
+        return Err(crate::Error::invalid(format!(
+            "{name} holds {} values, expected {len}",
+            g.m.len()
+        )));
     }
     Ok(g.m.clone())
 }

@@ -37,6 +37,16 @@ pub fn golden_stream(seed: u64, index: u64) -> Rng {
     seeded(seed ^ index.wrapping_mul(GOLDEN_GAMMA))
 }
 
+/// A standard normal draw (Box–Muller on two uniforms of `rng`, the cosine
+/// branch): the sampler of every Gaussian draw in training (random
+/// initialisation, 3DGS's split offsets).
+pub fn normal(rng: &mut Rng) -> f64 {
+    use rand::RngExt;
+    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
 /// 2⁶⁴/φ rounded to odd: the Weyl increment of SplitMix64.
 const GOLDEN_GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
 

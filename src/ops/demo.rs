@@ -289,6 +289,7 @@ fn bind_and_refine(
 ) -> anyhow::Result<serde_json::Value> {
     use crate::geom::binding::{self, BindOptions};
     use crate::train::refine::{LearningRates, RefineParams, Refiner, spatial_lr_scale};
+    use crate::train::trainer::Trainer;
     let t = Instant::now();
     let (mesh, _) = crate::geom::decimate::decimate(
         mesh,

@@ -32,6 +32,7 @@ use crate::io::views::{ViewOptions, load_views};
 use crate::model::{BoundGaussians, View};
 use crate::train::refine::{Eval, LearningRates, RefineParams, Refiner, spatial_lr_scale};
 use crate::train::session::{self, Event, Outcome};
+use crate::train::trainer::Trainer;
 
 /// Arguments of `refine`.
 #[derive(Args, Debug, Clone)]
@@ -156,8 +157,7 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let (model, saved) = load_model(&args)?;
     let (views, downscale) = load_refine_views(&args)?;
-    let (train, test) =
-        session::prepare_split(views.len(), args.test_every).map_err(anyhow::Error::msg)?;
+    let (train, test) = session::prepare_split(views.len(), args.test_every)?;
     let names: Vec<&str> = views.iter().map(|v| v.camera.name.as_str()).collect();
     let centres: Vec<[f64; 3]> = train
         .iter()
@@ -205,10 +205,10 @@ pub fn run(args: RefineArgs) -> anyhow::Result<()> {
     let outcome = session::run(&mut r, views, schedule, evals, "refine", &mut |e| match e {
         Event::Start { start, end } => bar.start(end - start),
         Event::Step { iteration, .. } => bar.step(iteration, || e.status()),
-        Event::Eval(_) => {}
+        Event::Edit(_) | Event::Eval(_) => {}
     });
     bar.finish();
-    let outcome = outcome.map_err(anyhow::Error::msg)?;
+    let outcome = outcome?;
     let summary = write_outputs(&args, stage.path(), &r, views, &outcome, &settings, t0)?;
     stage.commit()?;
     report(&args, &r, &outcome, test.len())?;

@@ -124,6 +124,10 @@ pub struct DataArgs {
     /// Evaluate the held-out views every N iterations (0: start and end).
     #[arg(long, default_value_t = 1000)]
     pub eval_every: u64,
+    /// Print every densification step on stderr (iteration, strategy,
+    /// primitives before → after, the counts behind it).
+    #[arg(short, long, conflicts_with = "quiet")]
+    pub verbose: bool,
     /// Random initial points when the data has none (1 to 2^40; `1e6`
     /// notation accepted); refused beyond the memory budget.
     #[arg(long, default_value_t = 100_000, value_parser = count_arg)]
@@ -450,10 +454,11 @@ fn train_loop(
     let r = session::run(t, views, schedule, evals, label, &mut |e| match e {
         Event::Start { start, end } => bar.start(end - start),
         Event::Step { iteration, .. } => bar.step(iteration, || e.status()),
-        Event::Eval(_) => {}
+        Event::Edit(edit) if a.verbose => bar.println(&edit.to_string()),
+        Event::Edit(_) | Event::Eval(_) => {}
     });
     bar.finish();
-    r.map_err(anyhow::Error::msg)
+    Ok(r?)
 }
 
 /// cfg_args as 3DGS writes it (a Python Namespace repr).
@@ -492,7 +497,7 @@ fn write_common(
         &p.points,
         crate::io::ply::header::Format::BinaryLittleEndian,
     )?;
-    let (step, groups) = t.state();
+    let (step, groups) = t.optimizer_state();
     let state = json!({"format": "splatkit-train-checkpoint-1", "model": kind, "iteration": step,
                        "settings": settings, "evals": r.evals});
     checkpoint::write(dir, step, &groups, &state)?;
@@ -510,7 +515,7 @@ fn write_common(
         "test_views": p.test.len(),
         "width": v0.width,
         "height": v0.height,
-        "iterations": t.iterations_done(),
+        "iterations": t.iteration(),
         "iterations_this_run": done,
         "seconds": t0.elapsed().as_secs_f64(),
         "loop_seconds": r.loop_s,

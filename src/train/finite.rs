@@ -64,7 +64,7 @@ pub fn check_loss(
     done: u64,
     loss: f64,
     scan: impl FnOnce() -> Option<String>,
-) -> Result<(), String> {
+) -> crate::Result<()> {
     if loss.is_finite() {
         return Ok(());
     }
@@ -72,18 +72,18 @@ pub fn check_loss(
         Some(p) => format!(" ({p})"),
         None => String::new(),
     };
-    Err(format!(
+    Err(crate::Error::invalid(format!(
         "iteration {done}: the loss became {loss}{why}; {NOTHING_WRITTEN}"
-    ))
+    )))
 }
 
 /// `Err` when `scan` (the parameters after `done` steps) found a
 /// non-finite value.
-pub fn check_params(done: u64, scan: Option<String>) -> Result<(), String> {
+pub fn check_params(done: u64, scan: Option<String>) -> crate::Result<()> {
     match scan {
-        Some(p) => Err(format!(
+        Some(p) => Err(crate::Error::invalid(format!(
             "after iteration {done}, a parameter is not finite: {p}; {NOTHING_WRITTEN}"
-        )),
+        ))),
         None => Ok(()),
     }
 }
@@ -121,14 +121,14 @@ mod tests {
             params(&a).as_deref(),
             Some("means of Gaussian 1500 (value 3 of 3) is -inf")
         );
-        let e = check_params(7, params(&a)).unwrap_err();
+        let e = check_params(7, params(&a)).unwrap_err().to_string();
         assert!(
             e.starts_with("after iteration 7, a parameter is not finite: means of Gaussian 1500")
         );
         assert!(e.ends_with(NOTHING_WRITTEN), "{e}");
         // a loss check passes finite losses without scanning
         assert!(check_loss(3, 0.25, || panic!("no scan for a finite loss")).is_ok());
-        let e = check_loss(3, f64::NAN, || None).unwrap_err();
+        let e = check_loss(3, f64::NAN, || None).unwrap_err().to_string();
         assert!(
             e.starts_with("iteration 3: the loss became NaN; stopped"),
             "{e}"
@@ -186,7 +186,7 @@ mod tests {
         assert!(ok.check_finite().is_ok());
         let mut t = fresh();
         t.model.sh_dc[i][1] = f32::INFINITY;
-        let e = t.step_checked(&views, &train).unwrap_err();
+        let e = t.step_checked(&views, &train).unwrap_err().to_string();
         assert!(e.starts_with("iteration 1: the loss became "), "{e}");
         assert!(
             e.contains(&format!("sh_dc of Gaussian {i} (value 2 of 3) is inf")),
@@ -195,7 +195,7 @@ mod tests {
         assert!(e.ends_with(NOTHING_WRITTEN), "{e}");
         let mut t = fresh();
         t.model.means[7][0] = f32::INFINITY;
-        let e = t.check_finite().unwrap_err();
+        let e = t.check_finite().unwrap_err().to_string();
         assert!(e.starts_with("after iteration 0, a parameter is not finite: means of Gaussian 7 (value 1 of 3) is inf"), "{e}");
     }
 
@@ -217,12 +217,12 @@ mod tests {
         let params = TriangleParams::preset(Preset::Outdoor, 100);
         let mut t = TriangleTrainer::new(soup.clone(), params.clone());
         t.soup.sh_dc[i] = [f32::INFINITY; 3];
-        let e = t.step_checked(&views, &train).unwrap_err();
+        let e = t.step_checked(&views, &train).unwrap_err().to_string();
         assert!(e.starts_with("iteration 1: the loss became "), "{e}");
         assert!(e.contains(&format!("of triangle {i}")), "{e}");
         let mut t = TriangleTrainer::new(soup, params);
         t.soup.triangles[3][1][2] = f32::NAN;
-        let e = t.check_finite().unwrap_err();
+        let e = t.check_finite().unwrap_err().to_string();
         assert!(
             e.contains("vertices of triangle 3 (value 6 of 9) is NaN"),
             "{e}"
@@ -259,7 +259,7 @@ mod tests {
         let i = front(means.into_iter(), eye);
         let mut r = Refiner::new(b.clone(), params.clone());
         r.model.sh_dc[i][0] = f32::INFINITY;
-        let e = r.step_checked(&views, &train).unwrap_err();
+        let e = r.step_checked(&views, &train).unwrap_err().to_string();
         assert!(e.starts_with("iteration 1: the loss became "), "{e}");
         assert!(e.contains(&format!("sh_dc of Gaussian {i}")), "{e}");
         let mut r = Refiner::new(b.clone(), params.clone());
@@ -268,7 +268,7 @@ mod tests {
             r.step_checked(&views, &train).is_ok(),
             "the render ignores it"
         );
-        let e = r.check_finite().unwrap_err();
+        let e = r.check_finite().unwrap_err().to_string();
         assert!(e.starts_with("after iteration 1, a parameter is not finite: complex of Gaussian 2 (value 2 of 2) is NaN"), "{e}");
         // finite but absurd optimiser state, as a checkpoint could hold it
         let mut r = Refiner::new(b, params);
@@ -279,7 +279,7 @@ mod tests {
         let mut err = None;
         for _ in 0..3 {
             if let Err(e) = r.step_checked(&views, &train) {
-                err = Some(e);
+                err = Some(e.to_string());
                 break;
             }
         }

@@ -65,13 +65,23 @@ impl Groups {
         self.adams.first().map_or(0, Adam::steps)
     }
 
-    /// The learning rate group `g` uses at the current step.
-    pub fn lr(&self, g: usize) -> f64 {
-        self.specs[g].lr.at(self.steps())
+    /// The position of the group named `name`. Panics when there is none:
+    /// group names are the trainers' constants, so a miss is a bug.
+    fn index(&self, name: &str) -> usize {
+        self.specs
+            .iter()
+            .position(|s| s.name == name)
+            .unwrap_or_else(|| panic!("no optimiser group {name:?}"))
     }
 
-    /// One Adam step of group `g`.
-    pub fn step(&mut self, g: usize, params: &mut [f32], grads: &[f32]) {
+    /// The learning rate the group `name` uses at the current step.
+    pub fn lr(&self, name: &str) -> f64 {
+        self.specs[self.index(name)].lr.at(self.steps())
+    }
+
+    /// One Adam step of the group `name`.
+    pub fn step(&mut self, name: &str, params: &mut [f32], grads: &[f32]) {
+        let g = self.index(name);
         self.adams[g].step(params, grads);
     }
 
@@ -101,9 +111,10 @@ impl Groups {
         }
     }
 
-    /// Zeroes both moments of the given rows of group `g` (3DGS's opacity
-    /// reset replaces the tensor and its optimiser state).
-    pub fn zero_rows(&mut self, g: usize, rows: impl Iterator<Item = usize>) {
+    /// Zeroes both moments of the given rows of the group `name` (3DGS's
+    /// opacity reset replaces the tensor and its optimiser state).
+    pub fn zero_rows(&mut self, name: &str, rows: impl Iterator<Item = usize>) {
+        let g = self.index(name);
         let w = self.specs[g].width;
         let steps = self.adams[g].steps();
         let (m, v) = self.adams[g].moments();
@@ -135,25 +146,28 @@ impl Groups {
 
     /// Restores [`Groups::state`] (for a model of `rows` rows) at `step`;
     /// errors name the group that does not fit.
-    pub fn restore(&mut self, step: u64, groups: &[GroupState], rows: usize) -> Result<(), String> {
+    pub fn restore(&mut self, step: u64, groups: &[GroupState], rows: usize) -> crate::Result<()> {
+        use crate::Error;
         for (spec, a) in self.specs.iter().zip(&mut self.adams) {
             let Some(g) = groups.iter().find(|g| g.name == spec.name) else {
-                return Err(format!(
+                return Err(Error::invalid(format!(
                     "the optimiser state has no group {:?} (a checkpoint of another model?)",
                     spec.name
-                ));
+                )));
             };
             if g.m.len() != rows * spec.width {
-                return Err(format!(
+                return Err(Error::invalid(format!(
                     "optimiser group {:?} holds {} values, the model's {rows} rows need {} \
                      (a checkpoint of another model?)",
                     spec.name,
                     g.m.len(),
                     rows * spec.width
-                ));
+                )));
             }
             let mut fresh = adam(g.m.len(), spec);
-            fresh.restore(g.m.clone(), g.v.clone(), step)?;
+            fresh
+                .restore(g.m.clone(), g.v.clone(), step)
+                .map_err(Error::invalid)?;
             *a = fresh;
         }
         Ok(())
@@ -227,7 +241,7 @@ mod tests {
         let mut a = Groups::new(vec![spec.clone()], 3);
         let mut p = vec![1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0];
         let g = vec![0.5f32, -1.0, 2.0, 0.25, -3.0, 1.0];
-        a.step(0, &mut p, &g);
+        a.step("x", &mut p, &g);
         let mut b = a.clone();
         b.remap(&[Source::Old(2), Source::New, Source::Old(0)]);
         let st = b.state();
@@ -238,10 +252,10 @@ mod tests {
         assert_eq!(b.steps(), 1);
         // same second step on the kept rows
         let mut pa = p.clone();
-        a.step(0, &mut pa, &g);
+        a.step("x", &mut pa, &g);
         let mut pb = vec![p[4], p[5], 0.0, 0.0, p[0], p[1]];
         let gb = vec![g[4], g[5], 0.0, 0.0, g[0], g[1]];
-        b.step(0, &mut pb, &gb);
+        b.step("x", &mut pb, &gb);
         assert_eq!([pb[0], pb[1], pb[4], pb[5]], [pa[4], pa[5], pa[0], pa[1]]);
     }
 

@@ -10,6 +10,10 @@
 //! - [`session`]: the one driver of every trainer (the loop, evaluations,
 //!   the finiteness guards, progress events);
 //! - [`trainer`]: the interface every model's trainer implements;
+//! - [`strategy`]: the densification strategies' interface (3DGS's ADC,
+//!   Triangle Splatting's MCMC, SuGaR's prune) and the one path that moves
+//!   optimiser moments and statistics with an edited model;
+//! - [`groups`]: named per-primitive optimiser groups that follow edits;
 //! - [`finite`]: the loops' guards against a loss or parameter that becomes
 //!   NaN or infinite (what is checked when).
 
@@ -20,6 +24,7 @@ pub mod photometric;
 pub mod refine;
 pub mod schedule;
 pub mod session;
+pub mod strategy;
 pub mod sugar;
 pub mod trainer;
 pub mod triangles;

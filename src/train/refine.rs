@@ -27,10 +27,12 @@ use splatkit_render::optim::{Adam, LrSchedule, ParamGroup};
 pub use super::photometric::Eval;
 use super::photometric::{evaluate, loss_and_grad, psnr_of};
 use super::schedule::view_at;
+use super::trainer::{StepStats, Trainer};
 use crate::geom::binding::grad::{NormalConsistency, backward};
 use crate::geom::binding::to_raster;
 use crate::model::optim_state::GroupState;
 use crate::model::{BoundGaussians, View};
+use crate::{Error, Result};
 
 /// SuGaR's learning rates (see the module docs).
 #[derive(Clone, Debug, serde::Serialize)]
@@ -92,16 +94,16 @@ pub const GROUPS: [&str; 6] = [
     "sh_rest",
 ];
 
-/// What one iteration measured.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct StepStats {
-    pub iteration: u64,
-    pub view: usize,
-    pub loss: f64,
-    pub photometric: f64,
-    pub normal_consistency: f64,
-    /// PSNR of this training view's render before the step.
-    pub psnr: f64,
+/// The optimiser groups by name: `adams[G::Vertices as usize]` is the
+/// group [`GROUPS`]`[G::Vertices as usize]`.
+#[derive(Clone, Copy)]
+enum G {
+    Vertices,
+    Complex,
+    LogScales,
+    Opacity,
+    ShDc,
+    ShRest,
 }
 
 /// The refinement state: the model, one Adam per parameter group, the
@@ -172,11 +174,6 @@ impl Refiner {
         }
     }
 
-    /// Iterations done.
-    pub fn iteration(&self) -> u64 {
-        self.iteration
-    }
-
     /// SH degree rendered at the current iteration.
     pub fn active_degree(&self) -> usize {
         let w = self.params.sh_warmup.max(1);
@@ -190,11 +187,8 @@ impl Refiner {
         }
     }
 
-    /// One optimisation step on `views[view_at(train, seed, iteration)]`.
-    /// A step whose loss is not finite changes nothing (no update, the
-    /// iteration count stays) and returns that loss; see
-    /// [`crate::train::finite`].
-    pub fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
+    /// [`Trainer::step`] on `views[view_at(train, seed, iteration)]`.
+    fn step_impl(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let vi = view_at(train, self.params.seed, self.iteration);
         let view = &views[vi];
         let d = self.active_degree();
@@ -223,34 +217,52 @@ impl Refiner {
                 view: vi,
                 loss,
                 photometric: photo,
-                normal_consistency: nc,
+                regularizer: w * nc,
                 psnr,
+                count: self.model.len(),
             };
         }
         let gv: Vec<f32> = bg.vertices.iter().flatten().map(|&x| x as f32).collect();
         let m = &mut self.model;
-        self.adams[0].step(flat(&mut m.mesh.vertices), &gv);
-        self.adams[1].step(flat(&mut m.complex), flat(&mut bg.complex));
-        self.adams[2].step(flat(&mut m.log_scales), flat(&mut bg.log_scales));
-        self.adams[3].step(&mut m.opacity_logits, &bg.opacity_logits);
-        self.adams[4].step(flat(&mut m.sh_dc), flat(&mut bg.sh_dc));
-        self.adams[5].step(&mut m.sh_rest, &bg.sh_rest);
+        let a = &mut self.adams;
+        a[G::Vertices as usize].step(flat(&mut m.mesh.vertices), &gv);
+        a[G::Complex as usize].step(flat(&mut m.complex), flat(&mut bg.complex));
+        a[G::LogScales as usize].step(flat(&mut m.log_scales), flat(&mut bg.log_scales));
+        a[G::Opacity as usize].step(&mut m.opacity_logits, &bg.opacity_logits);
+        a[G::ShDc as usize].step(flat(&mut m.sh_dc), flat(&mut bg.sh_dc));
+        a[G::ShRest as usize].step(&mut m.sh_rest, &bg.sh_rest);
         let stats = StepStats {
             iteration: self.iteration,
             view: vi,
             loss,
             photometric: photo,
-            normal_consistency: nc,
+            regularizer: w * nc,
             psnr,
+            count: self.model.len(),
         };
         self.iteration += 1;
         stats
+    }
+}
+
+impl Trainer for Refiner {
+    fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
+        self.step_impl(views, train)
+    }
+
+    fn iteration(&self) -> u64 {
+        self.iteration
+    }
+
+    /// Gaussians (a primitive is a bound Gaussian).
+    fn count(&self) -> usize {
+        self.model.len()
     }
 
     /// The first NaN or infinite parameter (mesh vertices, complex
     /// rotations, in-plane scales, opacity, SH), described; `None` when all
     /// are finite.
-    pub fn non_finite(&self) -> Option<String> {
+    fn non_finite(&self) -> Option<String> {
         use super::finite::{Param, first_non_finite};
         let m = &self.model;
         let k3 = m.rest_per_channel() * 3;
@@ -272,7 +284,7 @@ impl Refiner {
 
     /// PSNR / SSIM on the views `test` (mean over views) at the current
     /// iteration's SH degree.
-    pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
+    fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
         let g3 = to_raster(&self.model, self.active_degree());
         let s = self.settings();
         evaluate(views, test, self.iteration, |v| {
@@ -281,7 +293,7 @@ impl Refiner {
     }
 
     /// The optimiser state for a checkpoint: (step, groups).
-    pub fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
+    fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
         let groups = self
             .adams
             .iter()
@@ -300,23 +312,26 @@ impl Refiner {
 
     /// Restores a checkpoint's optimiser state (the model was loaded into
     /// `self.model` by the caller); errors when it belongs to another model.
-    pub fn restore(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+    fn restore(&mut self, step: u64, groups: Vec<GroupState>) -> Result<()> {
         if groups.len() != GROUPS.len() {
-            return Err(format!(
+            return Err(Error::invalid(format!(
                 "the optimiser state has {} groups, a refinement has {}",
                 groups.len(),
                 GROUPS.len()
-            ));
+            )));
         }
         for ((a, g), want) in self.adams.iter_mut().zip(groups).zip(GROUPS) {
             if g.name != want {
-                return Err(format!(
+                return Err(Error::invalid(format!(
                     "optimiser group {:?} where {want:?} was expected",
                     g.name
-                ));
+                )));
             }
-            a.restore(g.m, g.v, step)
-                .map_err(|m| format!("group {want}: {m} (a checkpoint of another model?)"))?;
+            a.restore(g.m, g.v, step).map_err(|m| {
+                Error::invalid(format!(
+                    "group {want}: {m} (a checkpoint of another model?)"
+                ))
+            })?;
         }
         self.iteration = step;
         Ok(())

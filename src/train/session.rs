@@ -17,8 +17,10 @@ use serde_json::Value;
 
 use super::photometric::Eval;
 use super::schedule::split;
-use super::trainer::{Progress, Trainer};
+use super::strategy::EditReport;
+use super::trainer::{StepStats, Trainer};
 use crate::model::View;
+use crate::{Error, Result};
 
 /// The views a session trains and evaluates on.
 #[derive(Clone, Copy, Debug)]
@@ -52,9 +54,12 @@ pub enum Event<'a> {
     /// rate so far.
     Step {
         iteration: u64,
-        progress: Progress,
+        progress: StepStats,
         it_per_s: f64,
     },
+    /// A densification strategy changed the model (after the
+    /// [`Event::Step`] of its iteration).
+    Edit(&'a EditReport),
     /// A held-out evaluation.
     Eval(&'a Eval),
 }
@@ -94,7 +99,7 @@ pub struct Outcome {
 impl Outcome {
     /// Iterations this session ran.
     pub fn done(&self, t: &dyn Trainer) -> u64 {
-        t.iterations_done() - self.start
+        t.iteration() - self.start
     }
 
     /// Iterations per second of the loop.
@@ -114,35 +119,38 @@ pub fn run(
     mut evals: Vec<Eval>,
     label: &str,
     on: &mut dyn FnMut(Event<'_>),
-) -> Result<Outcome, String> {
-    let with_label = |m: String| format!("{label}: {m}");
+) -> Result<Outcome> {
+    let with_label = |e: Error| Error::invalid(format!("{label}: {e}"));
     let evaluate = |t: &dyn Trainer, evals: &mut Vec<Eval>, on: &mut dyn FnMut(Event<'_>)| {
-        let e = t.eval(views.all, views.test);
+        let e = t.evaluate(views.all, views.test);
         on(Event::Eval(&e));
         evals.push(e);
     };
     if !views.test.is_empty() && evals.is_empty() {
         evaluate(t, &mut evals, on);
     }
-    let start = t.iterations_done();
+    let start = t.iteration();
     let end = schedule
         .stop_at
         .map_or(schedule.iterations, |s| s.clamp(start, schedule.iterations));
     on(Event::Start { start, end });
     let t_loop = std::time::Instant::now();
     let mut last_loss = None;
-    while t.iterations_done() < end {
+    while t.iteration() < end {
         // the loss every iteration, every parameter before each evaluation
         // and at the end (train::finite)
         let p = t.step_checked(views.all, views.train).map_err(with_label)?;
         last_loss = Some(p.loss);
-        let at = t.iterations_done();
+        let at = t.iteration();
         let it_per_s = (at - start) as f64 / t_loop.elapsed().as_secs_f64().max(1e-9);
         on(Event::Step {
             iteration: at,
             progress: p,
             it_per_s,
         });
+        for e in t.take_edits() {
+            on(Event::Edit(&e));
+        }
         if !views.test.is_empty()
             && schedule.eval_every > 0
             && at.is_multiple_of(schedule.eval_every)
@@ -153,10 +161,10 @@ pub fn run(
         }
     }
     t.check_finite().map_err(with_label)?;
-    let finished = t.iterations_done() == schedule.iterations;
+    let finished = t.iteration() == schedule.iterations;
     if finished
         && !views.test.is_empty()
-        && evals.last().map(|e| e.iteration) != Some(t.iterations_done())
+        && evals.last().map(|e| e.iteration) != Some(t.iteration())
     {
         evaluate(t, &mut evals, on);
     }
@@ -169,13 +177,13 @@ pub fn run(
 }
 
 /// The train / test split of `n` views holding out every `test_every`-th
-/// ([`split`]); `Err` with a message when every view is held out.
-pub fn prepare_split(n: usize, test_every: usize) -> Result<(Vec<usize>, Vec<usize>), String> {
+/// ([`split`]); an error when every view is held out.
+pub fn prepare_split(n: usize, test_every: usize) -> Result<(Vec<usize>, Vec<usize>)> {
     let (train, test) = split(n, test_every);
     if train.is_empty() {
-        return Err(format!(
+        return Err(Error::invalid(format!(
             "all {n} views are held out (--test-every {test_every}): nothing to train on"
-        ));
+        )));
     }
     Ok((train, test))
 }

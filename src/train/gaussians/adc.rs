@@ -15,15 +15,25 @@
 //!   reset) max screen radius > 20 px or max scale > 0.1·extent.
 //!
 //! The opacity reset sets every opacity to min(α, 0.01) and zeroes its Adam
-//! moments (the caller does the moments).
+//! moments.
+//!
+//! [`Adc`] is the [`Strategy`] that runs these on 3DGS's schedule
+//! (reference iterations, scaled by [`GaussianParams::at`]): statistics from
+//! every view while densifying; densify-and-prune every 100 iterations
+//! after 500 (the size prune after 3,000); opacity reset every 3,000 (and
+//! at 500 on a white background); nothing after the end of densification
+//! (15,000, or SuGaR's 7,000). Its checkpoint groups: `state/grad_sum`,
+//! `state/count`, `state/max_radius`.
 
 use glam::{DQuat, DVec3};
 
+use super::GaussianParams;
 use crate::model::Gaussians;
 use crate::model::gaussians::logit;
-use crate::model::rng::Rng;
+use crate::model::optim_state::{GroupState, find_values};
+use crate::model::rng::{Rng, normal, stream};
 use crate::train::groups::Source;
-use crate::train::triangles::init::normal;
+use crate::train::strategy::{Edit, GaussianObservation, Moments, StepContext, Strategy};
 
 /// Settings (3DGS defaults in [`Default`], extent 1).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -204,6 +214,112 @@ pub fn reset_opacity(g: &mut Gaussians) {
     let cap = logit(0.01);
     for o in &mut g.opacity_logits {
         *o = o.min(cap);
+    }
+}
+
+/// 3DGS's adaptive density control as a [`Strategy`] (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Adc {
+    params: AdcParams,
+    state: AdcState,
+    seed: u64,
+    /// Densification runs while the iteration is below this.
+    until: u64,
+    /// Densify after this iteration…
+    from: u64,
+    /// …every this many.
+    every: u64,
+    /// The size prune after this iteration.
+    big_after: u64,
+    /// Opacity reset every this many iterations.
+    reset_every: u64,
+    /// A white background's extra reset at this iteration.
+    white_reset_at: Option<u64>,
+}
+
+impl Adc {
+    /// The schedule of `p` for a model of `n` Gaussians.
+    pub fn new(p: &GaussianParams, n: usize) -> Self {
+        Adc {
+            params: p.adc.clone(),
+            state: AdcState::new(n),
+            seed: p.seed,
+            until: p.densify_until(),
+            from: p.at(500),
+            every: p.at(100),
+            big_after: p.at(3_000),
+            reset_every: p.at(3_000),
+            white_reset_at: p.white_background.then(|| p.at(500)),
+        }
+    }
+}
+
+/// RNG tag of the split offsets (the stream is `(seed ^ tag, iteration)`).
+const RNG_TAG: u64 = 0x0041_4443;
+
+/// Checkpoint group names of the statistics.
+const KEYS: [&str; 3] = ["state/grad_sum", "state/count", "state/max_radius"];
+
+impl Strategy<Gaussians> for Adc {
+    fn name(&self) -> &'static str {
+        "adc"
+    }
+
+    fn observes(&self, iteration: u64) -> bool {
+        iteration < self.until
+    }
+
+    fn observe(&mut self, obs: &GaussianObservation) {
+        self.state.observe(&obs.means2d_ndc, &obs.radii);
+    }
+
+    fn edit(&mut self, ctx: StepContext, g: &mut Gaussians) -> Vec<Edit> {
+        let it = ctx.iteration;
+        let mut edits = Vec::new();
+        if it >= self.until {
+            return edits;
+        }
+        if it > self.from && it.is_multiple_of(self.every) {
+            let big = it > self.big_after;
+            let mut rng = stream(self.seed ^ RNG_TAG, it);
+            let src = densify_and_prune(g, &mut self.state, &self.params, big, &mut rng);
+            let new = src.iter().filter(|s| **s == Source::New).count();
+            edits.push(Edit {
+                kind: "densify",
+                detail: format!("{} kept, {new} new", src.len() - new),
+                moments: Moments::Remap(src),
+            });
+        }
+        if it.is_multiple_of(self.reset_every) || self.white_reset_at == Some(it) {
+            reset_opacity(g);
+            edits.push(Edit {
+                kind: "opacity reset",
+                detail: String::new(),
+                moments: Moments::ZeroGroup("opacity"),
+            });
+        }
+        edits
+    }
+
+    fn remap(&mut self, sources: &[Source]) {
+        self.state.remap(sources);
+    }
+
+    fn save(&self, out: &mut Vec<GroupState>) {
+        let st = &self.state;
+        for (k, v) in KEYS.iter().zip([&st.grad_sum, &st.count, &st.max_radius]) {
+            out.push(GroupState::values(k, v.clone()));
+        }
+    }
+
+    fn load(&mut self, groups: &[GroupState], n: usize) -> crate::Result<()> {
+        let get = |name: &str| find_values(groups, name, n, "Gaussian");
+        self.state = AdcState {
+            grad_sum: get(KEYS[0])?,
+            count: get(KEYS[1])?,
+            max_radius: get(KEYS[2])?,
+        };
+        Ok(())
     }
 }
 

@@ -12,8 +12,11 @@
 //!    cameras_extent (log-linear over 30,000 reference iterations), SH DC
 //!    2.5e-3, SH rest 2.5e-3/20, opacity 0.05, scales 0.005 (the 2023
 //!    release SuGaR vendors), rotations 0.001;
-//! 4. adaptive density control ([`adc`]) every 100 iterations from 500
-//!    until the end of densification, opacity reset every 3,000.
+//! 4. the densification strategies edit the model ([`adc::Adc`]: adaptive
+//!    density control every 100 iterations from 500 until the end of
+//!    densification, opacity reset every 3,000; SuGaR's prune,
+//!    [`SugarPrune`]), moments and statistics following through
+//!    [`crate::train::strategy::apply`].
 //!
 //! Phases (reference iterations):
 //! - **vanilla 3DGS** (no `--regularize`): 30,000 iterations, densification
@@ -43,18 +46,21 @@ use splatkit_render::gaussian_grad::{self, AuxGrads, GaussianGrads};
 use splatkit_render::optim::LrSchedule;
 use splatkit_render::sh::coeff_count;
 
-use self::adc::{AdcParams, AdcState, densify_and_prune, reset_opacity};
-use super::groups::{GroupSpec, Groups, Source, kept, split_sh_grad};
+use self::adc::{Adc, AdcParams};
+use super::groups::{GroupSpec, Groups, split_sh_grad};
 use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of, view_for_step};
 use super::schedule::view_at;
+use super::strategy::{self, EditReport, GaussianObservation, StepContext, Strategies};
 use super::sugar::{
-    Neighbours, RawGrads, SUGAR_K, SdfParams, density_regularizer, entropy, sample_points,
-    sdf_regularizer, visible_candidates,
+    Neighbours, RawGrads, SUGAR_K, SdfParams, SugarPrune, density_regularizer, entropy,
+    sample_points, sdf_regularizer, visible_candidates,
 };
+use super::trainer::{StepStats, Trainer};
 use crate::model::gaussians::sigmoid;
-use crate::model::optim_state::{GroupState, find_values};
+use crate::model::optim_state::GroupState;
 use crate::model::rng::stream;
 use crate::model::{Gaussians, View};
+use crate::{Error, Result};
 
 /// SuGaR's surface regularisers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -152,24 +158,15 @@ pub const GROUPS: [&str; 6] = [
     "rotations",
 ];
 
-/// What one iteration measured.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct StepStats {
-    pub iteration: u64,
-    pub view: usize,
-    pub loss: f64,
-    pub photometric: f64,
-    pub regularizer: f64,
-    pub psnr: f64,
-    pub count: usize,
-}
-
 /// The training state.
 pub struct GaussianTrainer {
     pub model: Gaussians,
     pub params: GaussianParams,
     groups: Groups,
-    adc: AdcState,
+    /// Adaptive density control, then (SuGaR) the coarse-stage prune.
+    strategies: Strategies<Gaussians>,
+    /// Edits not yet taken by the session.
+    edits: Vec<EditReport>,
     nbrs: Option<Neighbours>,
     iteration: u64,
 }
@@ -178,25 +175,43 @@ fn flat<T: bytemuck::Pod>(v: &mut [T]) -> &mut [f32] {
     bytemuck::cast_slice_mut(v)
 }
 
+/// Gradients with respect to the model's stored parameters, one field per
+/// optimiser group.
+#[derive(Clone, Debug, Default)]
+pub struct ParamGrads {
+    pub means: Vec<[f32; 3]>,
+    pub sh_dc: Vec<[f32; 3]>,
+    /// `rest_per_channel` × 3 per Gaussian.
+    pub sh_rest: Vec<f32>,
+    /// Of the opacity logits.
+    pub opacity: Vec<f32>,
+    /// Of the log scales.
+    pub scales: Vec<[f32; 3]>,
+    pub rotations: Vec<[f32; 4]>,
+}
+
+impl ParamGrads {
+    /// One Adam step of every group of `groups` on `m`.
+    pub fn apply(mut self, groups: &mut Groups, m: &mut Gaussians) {
+        groups.step("means", flat(&mut m.means), flat(&mut self.means));
+        groups.step("sh_dc", flat(&mut m.sh_dc), flat(&mut self.sh_dc));
+        groups.step("sh_rest", &mut m.sh_rest, &self.sh_rest);
+        groups.step("opacity", &mut m.opacity_logits, &self.opacity);
+        groups.step("scales", flat(&mut m.log_scales), flat(&mut self.scales));
+        groups.step(
+            "rotations",
+            flat(&mut m.rotations),
+            flat(&mut self.rotations),
+        );
+    }
+}
+
 /// Gradients with respect to the model's stored parameters (means, SH DC,
-/// SH rest (`rest_per_channel` × 3 per Gaussian), opacity logits, log
-/// scales, rotations) from the rasteriser's gradients `gg` of the
-/// activated values rendered at SH degree `d`, plus the regularisers'
-/// gradients `reg` (already with respect to the stored parameters).
-#[allow(clippy::type_complexity)]
-pub fn raw_grads(
-    m: &Gaussians,
-    gg: &GaussianGrads,
-    reg: &RawGrads,
-    d: usize,
-) -> (
-    Vec<[f32; 3]>,
-    Vec<[f32; 3]>,
-    Vec<f32>,
-    Vec<f32>,
-    Vec<[f32; 3]>,
-    Vec<[f32; 4]>,
-) {
+/// SH rest, opacity logits, log scales, rotations) from the rasteriser's
+/// gradients `gg` of the activated values rendered at SH degree `d`, plus
+/// the regularisers' gradients `reg` (already with respect to the stored
+/// parameters).
+pub fn raw_grads(m: &Gaussians, gg: &GaussianGrads, reg: &RawGrads, d: usize) -> ParamGrads {
     let n = m.len();
     let k = m.rest_per_channel();
     let nc = coeff_count(d.min(m.sh_degree));
@@ -228,7 +243,14 @@ pub fn raw_grads(
         .zip(&reg.rotations)
         .map(|(a, b)| std::array::from_fn(|j| a[j] + b[j]))
         .collect();
-    (g_means, g_dc, g_rest, g_o, g_s, g_r)
+    ParamGrads {
+        means: g_means,
+        sh_dc: g_dc,
+        sh_rest: g_rest,
+        opacity: g_o,
+        scales: g_s,
+        rotations: g_r,
+    }
 }
 
 impl GaussianTrainer {
@@ -239,13 +261,23 @@ impl GaussianTrainer {
         let n = model.len();
         let groups = Groups::new(Self::specs(&params, &model), n);
         GaussianTrainer {
-            adc: AdcState::new(n),
+            strategies: Self::strategies(&params, n),
+            edits: Vec::new(),
             model,
             params,
             groups,
             nbrs: None,
             iteration: 0,
         }
+    }
+
+    /// 3DGS's density control, and SuGaR's prune when regularising.
+    fn strategies(p: &GaussianParams, n: usize) -> Strategies<Gaussians> {
+        let mut s: Strategies<Gaussians> = vec![Box::new(Adc::new(p, n))];
+        if p.regularize.is_some() {
+            s.push(Box::new(SugarPrune { at: p.at(9_000) }));
+        }
+        s
     }
 
     fn specs(p: &GaussianParams, g: &Gaussians) -> Vec<GroupSpec> {
@@ -289,11 +321,6 @@ impl GaussianTrainer {
         ]
     }
 
-    /// Iterations done.
-    pub fn iteration(&self) -> u64 {
-        self.iteration
-    }
-
     /// SH degree rendered at the current iteration.
     pub fn active_degree(&self) -> usize {
         ((self.iteration / self.params.at(1000)) as usize).min(self.model.sh_degree)
@@ -313,11 +340,9 @@ impl GaussianTrainer {
             .filter(|_| self.iteration + 1 > self.params.at(9_000))
     }
 
-    /// One optimisation step.
-    /// A step whose loss is not finite changes nothing (no update, the
-    /// iteration count stays) and returns that loss; see
-    /// [`crate::train::finite`].
-    pub fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
+    /// [`Trainer::step`]: render, loss, regularisers, backward, Adam, the
+    /// strategies' edits.
+    fn step_impl(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let p = self.params.clone();
         let it1 = self.iteration + 1; // the reference's 1-based iteration
         let vi = view_at(train, p.seed, self.iteration);
@@ -395,11 +420,10 @@ impl GaussianTrainer {
             normal: d_normal.as_deref(),
         };
         let gg = gaussian_grad::backward_aux(&g3, cam, &s, &state, &d_rgb, &aux);
-        if it1 < p.densify_until() {
-            let radii = state.radii(n, cam.width as usize, cam.height as usize);
-            self.adc
-                .observe(&gg.means2d_ndc(cam.width, cam.height), &radii);
-        }
+        strategy::observe_all(&mut self.strategies, it1, || GaussianObservation {
+            means2d_ndc: gg.means2d_ndc(cam.width, cam.height),
+            radii: state.radii(n, cam.width as usize, cam.height as usize),
+        });
         if !(photo + reg_loss).is_finite() {
             // no update and no iteration counted: the model stays as it
             // was, so the caller can name the value that made the loss
@@ -415,9 +439,17 @@ impl GaussianTrainer {
                 count: self.model.len(),
             };
         }
-        self.apply(&gg, &reg, d);
+        raw_grads(&self.model, &gg, &reg, d).apply(&mut self.groups, &mut self.model);
         self.iteration += 1;
-        self.edit(train.len());
+        let ctx = StepContext {
+            iteration: self.iteration,
+            train_views: train.len(),
+        };
+        let done = strategy::apply(&mut self.strategies, ctx, &mut self.model, &mut self.groups);
+        if done.rows_changed {
+            self.nbrs = None; // indices into the old rows
+        }
+        self.edits.extend(done.reports);
         StepStats {
             iteration: self.iteration - 1,
             view: vi,
@@ -428,63 +460,16 @@ impl GaussianTrainer {
             count: self.model.len(),
         }
     }
+}
 
-    /// Raw gradients from the rasteriser's plus `reg`, and the Adam steps.
-    fn apply(&mut self, gg: &GaussianGrads, reg: &RawGrads, d: usize) {
-        let (mut g_means, mut g_dc, g_rest, g_o, mut g_s, mut g_r) =
-            raw_grads(&self.model, gg, reg, d);
-        let m = &mut self.model;
-        self.groups.step(0, flat(&mut m.means), flat(&mut g_means));
-        self.groups.step(1, flat(&mut m.sh_dc), flat(&mut g_dc));
-        self.groups.step(2, &mut m.sh_rest, &g_rest);
-        self.groups.step(3, &mut m.opacity_logits, &g_o);
-        self.groups.step(4, flat(&mut m.log_scales), flat(&mut g_s));
-        self.groups.step(5, flat(&mut m.rotations), flat(&mut g_r));
-    }
-
-    /// Densification, opacity reset and SuGaR's prune at the milestones
-    /// (after `self.iteration` was advanced: it is the 1-based iteration
-    /// just finished).
-    fn edit(&mut self, _train_views: usize) {
-        let p = self.params.clone();
-        let it = self.iteration;
-        if it < p.densify_until() {
-            if it > p.at(500) && it.is_multiple_of(p.at(100)) {
-                let big = it > p.at(3_000);
-                let mut rng = stream(p.seed ^ 0x0041_4443, it);
-                let src = densify_and_prune(&mut self.model, &mut self.adc, &p.adc, big, &mut rng);
-                self.groups.remap(&src);
-            }
-            if it.is_multiple_of(p.at(3_000)) || (p.white_background && it == p.at(500)) {
-                reset_opacity(&mut self.model);
-                self.groups.zero_rows(3, 0..self.model.len());
-            }
-        }
-        if p.regularize.is_some() && it == p.at(9_000) {
-            let mut keep: Vec<bool> = self
-                .model
-                .opacity_logits
-                .iter()
-                .map(|&o| o >= 0.0)
-                .collect();
-            if !keep.contains(&true) {
-                // never empty the model: a run too short to recover from its
-                // last opacity reset keeps everything
-                keep.fill(true);
-            }
-            let src: Vec<Source> = kept(&keep);
-            let idx: Vec<usize> = (0..keep.len()).filter(|&i| keep[i]).collect();
-            self.model = self.model.gather(&idx);
-            self.adc.remap(&src);
-            self.groups.remap(&src);
-            self.nbrs = None;
-        }
+impl Trainer for GaussianTrainer {
+    fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
+        self.step_impl(views, train)
     }
 
     /// The first NaN or infinite parameter (means, SH, opacity, scales,
-    /// rotations), described ([`crate::train::finite`]); `None` when all
-    /// are finite.
-    pub fn non_finite(&self) -> Option<String> {
+    /// rotations), described ([`crate::train::finite`]).
+    fn non_finite(&self) -> Option<String> {
         use super::finite::{Param, first_non_finite};
         let m = &self.model;
         let k3 = m.rest_per_channel() * 3;
@@ -504,8 +489,7 @@ impl GaussianTrainer {
         ])
     }
 
-    /// PSNR / SSIM on the views `test` at the current SH degree.
-    pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
+    fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
         let g3 = self.model.to_raster_at(self.active_degree());
         let s = self.settings();
         evaluate(views, test, self.iteration, |v| {
@@ -513,17 +497,21 @@ impl GaussianTrainer {
         })
     }
 
-    /// The optimiser and strategy state for a checkpoint; the density
-    /// control's accumulators and the neighbour table travel as `state/...`
-    /// groups (values in `m`).
-    pub fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
+    fn iteration(&self) -> u64 {
+        self.iteration
+    }
+
+    fn count(&self) -> usize {
+        self.model.len()
+    }
+
+    /// The optimiser groups, the strategies' statistics and the neighbour
+    /// table (`state/neighbours`) of the surface regulariser.
+    fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
         let mut g = self.groups.state();
-        let extra = GroupState::values;
-        g.push(extra("state/grad_sum", self.adc.grad_sum.clone()));
-        g.push(extra("state/count", self.adc.count.clone()));
-        g.push(extra("state/max_radius", self.adc.max_radius.clone()));
+        strategy::save_all(&self.strategies, &mut g);
         if let Some(nb) = &self.nbrs {
-            g.push(extra(
+            g.push(GroupState::values(
                 "state/neighbours",
                 nb.idx.iter().map(|&i| i as f32).collect(),
             ));
@@ -531,23 +519,17 @@ impl GaussianTrainer {
         (self.iteration, g)
     }
 
-    /// Restores [`GaussianTrainer::optimizer_state`] (the model was loaded
-    /// into `self.model`); errors when it belongs to another model.
-    pub fn restore(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+    fn restore(&mut self, step: u64, groups: Vec<GroupState>) -> Result<()> {
         let n = self.model.len();
         self.groups = Groups::new(Self::specs(&self.params, &self.model), n);
         self.groups.restore(step, &groups, n)?;
-        let get = |name: &str| find_values(&groups, name, n, "Gaussian");
-        self.adc = AdcState {
-            grad_sum: get("state/grad_sum")?,
-            count: get("state/count")?,
-            max_radius: get("state/max_radius")?,
-        };
+        self.strategies = Self::strategies(&self.params, n);
+        strategy::load_all(&mut self.strategies, &groups, n)?;
         self.nbrs = match groups.iter().find(|g| g.name == "state/neighbours") {
             Some(g) => {
                 let k = SUGAR_K.min(n);
                 if g.m.len() != n * k || g.m.iter().any(|&v| v < 0.0 || v as usize >= n) {
-                    return Err("the neighbour table does not fit the model".into());
+                    return Err(Error::invalid("the neighbour table does not fit the model"));
                 }
                 Some(Neighbours {
                     k,
@@ -558,6 +540,10 @@ impl GaussianTrainer {
         };
         self.iteration = step;
         Ok(())
+    }
+
+    fn take_edits(&mut self) -> Vec<EditReport> {
+        std::mem::take(&mut self.edits)
     }
 }
 

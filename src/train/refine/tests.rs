@@ -158,6 +158,6 @@ fn optimiser_state_of_another_model_is_refused() {
     let (s, g) = ra.optimizer_state();
     let b = one_per_face(5);
     let mut rb = Refiner::new(b.clone(), params(&b, &cams));
-    let e = rb.restore(s, g).unwrap_err();
+    let e = rb.restore(s, g).unwrap_err().to_string();
     assert!(e.contains("another model"), "{e}");
 }

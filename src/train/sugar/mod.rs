@@ -12,7 +12,9 @@
 //!   `p = μ + R(1.5·s ⊙ ε)` around Gaussians near the rendered surface;
 //! - [`density_at`]: SuGaR's density d(p) over the owner's neighbours;
 //! - [`density_regularizer`] (SuGaR's "density" mode) and
-//!   [`sdf_regularizer`] (its "sdf" mode with the normal term).
+//!   [`sdf_regularizer`] (its "sdf" mode with the normal term);
+//! - [`SugarPrune`]: the α < 0.5 prune after iteration 9,000, a densification
+//!   [`crate::train::strategy::Strategy`].
 //!
 //! Conventions: world space in scene units; a Gaussian's axis k is column k
 //! of the rotation matrix of its normalised quaternion, with standard
@@ -27,6 +29,7 @@ mod density;
 mod entropy;
 mod geometry;
 mod neighbours;
+mod prune;
 mod regularizers;
 mod sampling;
 #[cfg(test)]
@@ -35,6 +38,7 @@ mod tests;
 pub use density::density_at;
 pub use entropy::entropy;
 pub use neighbours::{Neighbours, SUGAR_K};
+pub use prune::SugarPrune;
 pub use regularizers::{SdfParams, density_regularizer, sdf_regularizer};
 pub use sampling::{Samples, sample_points, visible_candidates};
 

@@ -17,11 +17,10 @@
 //! seeds, centred at the origin.
 
 use glam::{DMat3, DQuat, DVec3};
-use rand::RngExt;
 
 use crate::geom::knn::mean_sq_dist_3nn;
 use crate::model::gaussians::logit;
-use crate::model::rng::Rng;
+use crate::model::rng::{Rng, normal};
 use crate::model::{PointCloud, TriangleSoup};
 use crate::{Error, Result};
 
@@ -79,13 +78,6 @@ pub fn random_rotation(rng: &mut Rng) -> DMat3 {
             return DMat3::from_quat(q / l);
         }
     }
-}
-
-/// A standard normal draw (Box–Muller).
-pub fn normal(rng: &mut Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// The seeds with the dome added when asked (see the module docs).

@@ -25,14 +25,24 @@
 //!    and Adam moments, new triangles are appended with zero moments.
 //!
 //! After densification ends, the same steps only prune the dead.
+//!
+//! [`Mcmc`] is the [`Strategy`] that runs these on the reference schedule
+//! (scaled by [`TriangleParams::at`]; the interval at least one pass over
+//! the training views and [`super::MIN_INTERVAL`]), with the game-engine
+//! variant's final pruning thresholds. Its checkpoint groups:
+//! `state/importance`, `state/visible`, `state/image_size`,
+//! `state/counters` (views observed, steps taken).
 
 use glam::DVec3;
 use rand::RngExt;
 
+use super::TriangleParams;
 use crate::model::TriangleSoup;
 use crate::model::gaussians::{logit, sigmoid};
-use crate::model::rng::Rng;
+use crate::model::optim_state::{GroupState, find_values};
+use crate::model::rng::{Rng, stream};
 use crate::train::groups::Source;
+use crate::train::strategy::{Edit, Moments, StepContext, Strategy};
 use splatkit_render::triangle_stats::TriangleStats;
 
 /// Densification settings (the reference's defaults in [`Default`]).
@@ -176,6 +186,25 @@ impl McmcState {
         dead
     }
 
+    /// How many triangles each rule of [`McmcState::dead`] finds (a
+    /// triangle may match several), and the growth the step will add: the
+    /// verbose report of a densification step.
+    pub fn dead_summary(&self, soup: &TriangleSoup, p: &McmcParams, full_pass: bool) -> String {
+        let n = soup.len();
+        let n_dead = self.dead(soup, p, full_pass).iter().filter(|&&d| d).count();
+        let n_add = growth_count(n, n_dead, p.add_shape, p.max_shapes);
+        let imp = (0..n)
+            .filter(|&i| full_pass && self.importance[i] < p.importance_threshold)
+            .count();
+        let op = (0..n)
+            .filter(|&i| soup.opacity(i) <= p.opacity_dead)
+            .count();
+        let vis = (0..n)
+            .filter(|&i| full_pass && self.visible[i] < 2.0)
+            .count();
+        format!("dead {n_dead}: importance {imp}, opacity {op}, views {vis}; add {n_add}")
+    }
+
     /// One growth-and-relocation step on `soup` (see the module docs);
     /// returns where each row of the new soup comes from.
     pub fn densify(
@@ -189,20 +218,6 @@ impl McmcState {
         let mut dead = self.dead(soup, p, check_visibility);
         let n_dead = dead.iter().filter(|&&d| d).count();
         let n_add = growth_count(n, n_dead, p.add_shape, p.max_shapes);
-        if std::env::var_os("SPLATKIT_DEBUG_DENSIFY").is_some() {
-            let imp = (0..n)
-                .filter(|&i| self.importance[i] < p.importance_threshold)
-                .count();
-            let op = (0..n)
-                .filter(|&i| soup.opacity(i) <= p.opacity_dead)
-                .count();
-            let vis = (0..n)
-                .filter(|&i| check_visibility && self.visible[i] < 2.0)
-                .count();
-            eprintln!(
-                "n {n} dead {n_dead} (importance {imp}, opacity {op}, visibility {vis}) add {n_add}"
-            );
-        }
         // Efraimidis–Spirakis keys ln(u)/w over the alive triangles
         let by_opacity = self.steps.is_multiple_of(2);
         let mut keys: Vec<(f64, usize)> = (0..n)
@@ -282,6 +297,140 @@ impl McmcState {
         *soup = soup.gather(&keep);
         self.reset(soup.len());
         keep.into_iter().map(Source::Old).collect()
+    }
+}
+
+/// Triangle Splatting's densification as a [`Strategy`] (see the module
+/// docs).
+#[derive(Clone, Debug)]
+pub struct Mcmc {
+    params: McmcParams,
+    state: McmcState,
+    seed: u64,
+    /// The reference's 500-iteration interval, scaled.
+    interval: u64,
+    /// Densify after this iteration…
+    from: u64,
+    /// …and before this one; prune only from it on.
+    until: u64,
+    /// The game-engine variant's final phase: opacity threshold 0.7 after
+    /// the first, σ ≥ 1 removed after the second.
+    game_engine: Option<(u64, u64)>,
+}
+
+/// RNG tag of a step's picks (the stream is `(seed ^ tag, iteration)`).
+const RNG_TAG: u64 = 0x7269_616e_676c_6573;
+
+impl Mcmc {
+    /// The schedule of `p` for a soup of `n` triangles.
+    pub fn new(p: &TriangleParams, n: usize) -> Self {
+        Mcmc {
+            params: p.mcmc.clone(),
+            state: McmcState::new(n),
+            seed: p.seed,
+            interval: p.at(500),
+            from: p.at(500),
+            until: p.at(25_000),
+            game_engine: p.game_engine.then(|| (p.at(29_000), p.at(28_000))),
+        }
+    }
+}
+
+impl Strategy<TriangleSoup> for Mcmc {
+    fn name(&self) -> &'static str {
+        "mcmc"
+    }
+
+    fn observes(&self, _iteration: u64) -> bool {
+        true
+    }
+
+    fn observe(&mut self, s: &TriangleStats) {
+        self.state.observe(s);
+    }
+
+    fn edit(&mut self, ctx: StepContext, soup: &mut TriangleSoup) -> Vec<Edit> {
+        let it = ctx.iteration;
+        // at least one pass over the views between steps (the statistics —
+        // importance, views seen — mean nothing over fewer), and at least
+        // `MIN_INTERVAL` iterations so a short run's new triangles settle
+        // before the next step as the reference's 500 let them
+        let interval = self
+            .interval
+            .max(ctx.train_views as u64)
+            .max(super::MIN_INTERVAL);
+        if !it.is_multiple_of(interval) {
+            return Vec::new();
+        }
+        let full_pass = self.state.views >= ctx.train_views as u64;
+        let mut rng = stream(self.seed ^ RNG_TAG, it);
+        let (kind, detail, sources) = if it > self.from && it < self.until {
+            let detail = self.state.dead_summary(soup, &self.params, full_pass);
+            let src = self.state.densify(soup, &self.params, full_pass, &mut rng);
+            ("densify", detail, src)
+        } else if it >= self.until {
+            let mut mp = self.params.clone();
+            let mut sigma_cut = f32::INFINITY;
+            if let Some((opacity_07_after, sigma_after)) = self.game_engine {
+                mp.opacity_dead = if it > opacity_07_after { 0.7 } else { 0.1 };
+                if it > sigma_after {
+                    sigma_cut = 1.0;
+                }
+            }
+            let soft: Vec<bool> = (0..soup.len())
+                .map(|i| soup.sigma(i) >= sigma_cut)
+                .collect();
+            let src = self.state.prune(soup, &mp, full_pass, |i| soft[i]);
+            ("prune", String::new(), src)
+        } else {
+            return Vec::new();
+        };
+        vec![Edit {
+            kind,
+            detail,
+            moments: Moments::Remap(sources),
+        }]
+    }
+
+    fn remap(&mut self, sources: &[Source]) {
+        let pick = |v: &[f32]| -> Vec<f32> {
+            sources
+                .iter()
+                .map(|s| match *s {
+                    Source::Old(i) => v[i],
+                    Source::New => 0.0,
+                })
+                .collect()
+        };
+        let st = &mut self.state;
+        st.importance = pick(&st.importance);
+        st.visible = pick(&st.visible);
+        st.image_size = pick(&st.image_size);
+    }
+
+    fn save(&self, out: &mut Vec<GroupState>) {
+        let st = &self.state;
+        let extra = GroupState::values;
+        out.push(extra("state/importance", st.importance.clone()));
+        out.push(extra("state/visible", st.visible.clone()));
+        out.push(extra("state/image_size", st.image_size.clone()));
+        out.push(extra(
+            "state/counters",
+            vec![st.views as f32, st.steps as f32],
+        ));
+    }
+
+    fn load(&mut self, groups: &[GroupState], n: usize) -> crate::Result<()> {
+        let get = |name: &str, len: usize| find_values(groups, name, len, "triangle");
+        let c = get("state/counters", 2)?;
+        self.state = McmcState {
+            importance: get("state/importance", n)?,
+            visible: get("state/visible", n)?,
+            image_size: get("state/image_size", n)?,
+            views: c[0] as u64,
+            steps: c[1] as u64,
+        };
+        Ok(())
     }
 }
 

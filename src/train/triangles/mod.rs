@@ -16,8 +16,9 @@
 //!    scene extent, as the reference), SH DC 0.0025, SH rest 0.0025/20,
 //!    opacity 0.014, σ 0.0008;
 //! 4. accumulate the view's per-triangle statistics and, every
-//!    `interval` iterations, densify ([`mcmc`]) while densifying, prune
-//!    after.
+//!    `interval` iterations, densify while densifying, prune after: the
+//!    [`mcmc::Mcmc`] strategy, moments following through
+//!    [`crate::train::strategy::apply`].
 //!
 //! Schedules: the reference's milestones are for 30,000 iterations
 //! (densify 500 → 25,000 every 500, normal term from 5,000, SH band every
@@ -47,13 +48,15 @@ use splatkit_render::triangle::{rasterize, render};
 use splatkit_render::triangle_grad::{self, AuxGrads, TriangleGrads};
 use splatkit_render::triangle_stats::triangle_stats;
 
-use self::mcmc::{McmcParams, McmcState};
-use super::groups::{GroupSpec, Groups, Source, split_sh_grad};
+use self::mcmc::{Mcmc, McmcParams};
+use super::groups::{GroupSpec, Groups, split_sh_grad};
 use super::photometric::{Eval, evaluate, loss_and_grad_weighted, psnr_of, view_for_step};
 use super::schedule::view_at;
+use super::strategy::{self, EditReport, StepContext, Strategies};
+use super::trainer::{StepStats, Trainer};
+use crate::Result;
 use crate::model::gaussians::sigmoid;
-use crate::model::optim_state::{GroupState, find_values};
-use crate::model::rng::stream;
+use crate::model::optim_state::GroupState;
 use crate::model::{TriangleSoup, View};
 
 /// The reference's run length, for which the milestones are stated.
@@ -136,21 +139,40 @@ impl TriangleParams {
     }
 }
 
+/// Gradients with respect to the soup's stored parameters, one field per
+/// optimiser group.
+#[derive(Clone, Debug, Default)]
+pub struct ParamGrads {
+    pub vertices: Vec<[[f32; 3]; 3]>,
+    pub sh_dc: Vec<[f32; 3]>,
+    /// `rest_per_channel` × 3 per triangle.
+    pub sh_rest: Vec<f32>,
+    /// Of the opacity logits.
+    pub opacity: Vec<f32>,
+    /// Of the raw σ.
+    pub sigma: Vec<f32>,
+}
+
+impl ParamGrads {
+    /// One Adam step of every group of `groups` on `soup`.
+    pub fn apply(mut self, groups: &mut Groups, soup: &mut TriangleSoup) {
+        groups.step(
+            "vertices",
+            flat(&mut soup.triangles),
+            flat(&mut self.vertices),
+        );
+        groups.step("sh_dc", flat(&mut soup.sh_dc), flat(&mut self.sh_dc));
+        groups.step("sh_rest", &mut soup.sh_rest, &self.sh_rest);
+        groups.step("opacity", &mut soup.opacity_raw, &self.opacity);
+        groups.step("sigma", &mut soup.sigma_raw, &self.sigma);
+    }
+}
+
 /// Gradients with respect to the soup's stored parameters (vertices, SH
-/// DC, SH rest (`rest_per_channel` × 3 per triangle), opacity logit, raw
-/// σ) from the rasteriser's gradients `g` of the activated values, at the
-/// soup's active SH degree. No regulariser is included.
-#[allow(clippy::type_complexity)]
-pub fn raw_grads(
-    soup: &TriangleSoup,
-    g: &TriangleGrads,
-) -> (
-    Vec<[[f32; 3]; 3]>,
-    Vec<[f32; 3]>,
-    Vec<f32>,
-    Vec<f32>,
-    Vec<f32>,
-) {
+/// DC, SH rest, opacity logit, raw σ) from the rasteriser's gradients `g`
+/// of the activated values, at the soup's active SH degree. No regulariser
+/// is included.
+pub fn raw_grads(soup: &TriangleSoup, g: &TriangleGrads) -> ParamGrads {
     let n = soup.len();
     let k = soup.rest_per_channel();
     let nc = coeff_count(soup.active_sh_degree.min(soup.sh_degree));
@@ -166,31 +188,27 @@ pub fn raw_grads(
         .into_par_iter()
         .map(|i| g.sigmas[i] * soup.sigma_raw[i].exp())
         .collect();
-    (g.vertices.clone(), dc, rest, o, s)
+    ParamGrads {
+        vertices: g.vertices.clone(),
+        sh_dc: dc,
+        sh_rest: rest,
+        opacity: o,
+        sigma: s,
+    }
 }
 
 /// Names of the optimiser groups, in order.
 pub const GROUPS: [&str; 5] = ["vertices", "sh_dc", "sh_rest", "opacity", "sigma"];
-
-/// What one iteration measured.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct StepStats {
-    pub iteration: u64,
-    pub view: usize,
-    pub loss: f64,
-    pub photometric: f64,
-    /// PSNR of this training view's render before the step.
-    pub psnr: f64,
-    /// Triangles after the step.
-    pub count: usize,
-}
 
 /// The training state.
 pub struct TriangleTrainer {
     pub soup: TriangleSoup,
     pub params: TriangleParams,
     groups: Groups,
-    mcmc: McmcState,
+    /// Triangle Splatting's MCMC densification.
+    strategies: Strategies<TriangleSoup>,
+    /// Edits not yet taken by the session.
+    edits: Vec<EditReport>,
     iteration: u64,
 }
 
@@ -241,7 +259,8 @@ impl TriangleTrainer {
         let n = soup.len();
         let groups = Groups::new(Self::specs(&params, &soup), n);
         TriangleTrainer {
-            mcmc: McmcState::new(n),
+            strategies: vec![Box::new(Mcmc::new(&params, n))],
+            edits: Vec::new(),
             soup,
             params,
             groups,
@@ -284,11 +303,6 @@ impl TriangleTrainer {
         ]
     }
 
-    /// Iterations done.
-    pub fn iteration(&self) -> u64 {
-        self.iteration
-    }
-
     /// SH degree rendered at the current iteration.
     pub fn active_degree(&self) -> usize {
         let w = self.params.at(1000);
@@ -308,11 +322,9 @@ impl TriangleTrainer {
         self.params.game_engine && self.iteration + 1 > self.params.at(25_000)
     }
 
-    /// One optimisation step on `views[view_at(train, seed, iteration)]`.
-    /// A step whose loss is not finite changes nothing (no update, the
-    /// iteration count stays) and returns that loss; see
-    /// [`crate::train::finite`].
-    pub fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
+    /// [`Trainer::step`] on `views[view_at(train, seed, iteration)]`:
+    /// render, loss, backward, Adam, the strategy's edits.
+    fn step_impl(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let p = self.params.clone();
         let vi = view_at(train, p.seed, self.iteration);
         let mut s = self.settings();
@@ -356,29 +368,32 @@ impl TriangleTrainer {
         };
         let grads = triangle_grad::backward_aux(&t3, &view.camera, &s, &state, &d_rgb, &aux);
         let stats = triangle_stats(&t3, &view.camera, &s, &state);
-        let (mut gv, mut g_dc, g_rest, mut g_o, mut g_s) = raw_grads(&self.soup, &grads);
+        let mut pg = raw_grads(&self.soup, &grads);
         let n = self.soup.len();
         let nf = n.max(1) as f64;
         // λ_o · mean(opacity)
         let mean_o = t3.opacities.iter().map(|&o| o as f64).sum::<f64>() / nf;
         loss += p.lambda_opacity * mean_o;
-        g_o.par_iter_mut().zip(&t3.opacities).for_each(|(g, &o)| {
-            let o = o as f64;
-            *g += (p.lambda_opacity / nf * o * (1.0 - o)) as f32;
-        });
+        pg.opacity
+            .par_iter_mut()
+            .zip(&t3.opacities)
+            .for_each(|(g, &o)| {
+                let o = o as f64;
+                *g += (p.lambda_opacity / nf * o * (1.0 - o)) as f32;
+            });
         // λ_size / mean(area) while densifying
         if self.iteration + 1 < p.at(25_000) {
-            loss += size_loss(&self.soup.triangles, p.lambda_size, &mut gv);
+            loss += size_loss(&self.soup.triangles, p.lambda_size, &mut pg.vertices);
         }
         if self.game_phase() {
             // mean(σ) + 1/(0.05·mean(o))
             let mean_s = (0..n).map(|i| self.soup.sigma(i) as f64).sum::<f64>() / nf;
             loss += mean_s + 1.0 / (0.05 * mean_o.max(1e-12));
             for i in 0..n {
-                g_s[i] += ((self.soup.sigma(i) as f64 - 0.01) / nf) as f32;
+                pg.sigma[i] += ((self.soup.sigma(i) as f64 - 0.01) / nf) as f32;
                 let o = self.soup.opacity(i) as f64;
                 let d = -1.0 / (0.05 * mean_o.max(1e-12).powi(2)) / nf;
-                g_o[i] += (d * o * (1.0 - o)) as f32;
+                pg.opacity[i] += (d * o * (1.0 - o)) as f32;
             }
         }
         if !loss.is_finite() {
@@ -391,70 +406,45 @@ impl TriangleTrainer {
                 view: vi,
                 loss,
                 photometric: photo,
+                regularizer: loss - photo,
                 psnr,
                 count: self.soup.len(),
             };
         }
-        let m = &mut self.soup;
-        self.groups.step(0, flat(&mut m.triangles), flat(&mut gv));
-        self.groups.step(1, flat(&mut m.sh_dc), flat(&mut g_dc));
-        self.groups.step(2, &mut m.sh_rest, &g_rest);
-        self.groups.step(3, &mut m.opacity_raw, &g_o);
-        self.groups.step(4, &mut m.sigma_raw, &g_s);
-        self.mcmc.observe(&stats);
+        pg.apply(&mut self.groups, &mut self.soup);
+        strategy::observe_all(&mut self.strategies, self.iteration + 1, || stats);
         self.iteration += 1;
-        self.maybe_densify(train.len());
+        let ctx = StepContext {
+            iteration: self.iteration,
+            train_views: train.len(),
+        };
+        let done = strategy::apply(&mut self.strategies, ctx, &mut self.soup, &mut self.groups);
+        self.edits.extend(done.reports);
         StepStats {
             iteration: self.iteration - 1,
             view: vi,
             loss,
             photometric: photo,
+            regularizer: loss - photo,
             psnr,
             count: self.soup.len(),
         }
     }
 
-    /// Densification / pruning at the step boundaries of the schedule.
-    fn maybe_densify(&mut self, train_views: usize) {
-        let p = &self.params;
-        let it = self.iteration;
-        // at least one pass over the views between steps (the statistics —
-        // importance, views seen — mean nothing over fewer), and at least
-        // `MIN_INTERVAL` iterations so a short run's new triangles settle
-        // before the next step as the reference's 500 let them
-        let interval = p.at(500).max(train_views as u64).max(MIN_INTERVAL);
-        if !it.is_multiple_of(interval) {
-            return;
-        }
-        let full_pass = self.mcmc.views >= train_views as u64;
-        let mut rng = stream(p.seed ^ 0x7269_616e_676c_6573, it);
-        let sources: Vec<Source> = if it > p.at(500) && it < p.at(25_000) {
-            let mp = p.mcmc.clone();
-            self.mcmc.densify(&mut self.soup, &mp, full_pass, &mut rng)
-        } else if it >= p.at(25_000) {
-            let mut mp = p.mcmc.clone();
-            let mut sigma_cut = f32::INFINITY;
-            if p.game_engine {
-                mp.opacity_dead = if it > p.at(29_000) { 0.7 } else { 0.1 };
-                if it > p.at(28_000) {
-                    sigma_cut = 1.0;
-                }
-            }
-            let soft: Vec<bool> = (0..self.soup.len())
-                .map(|i| self.soup.sigma(i) >= sigma_cut)
-                .collect();
-            self.mcmc.prune(&mut self.soup, &mp, full_pass, |i| soft[i])
-        } else {
-            return;
-        };
-        if std::env::var_os("SPLATKIT_DEBUG_DENSIFY").is_some() {
-            eprintln!("it {it}: {} triangles", self.soup.len());
-        }
-        self.groups.remap(&sources);
+    /// The soup with the active SH degree reached so far (what is saved).
+    pub fn model(&self) -> TriangleSoup {
+        let mut soup = self.soup.clone();
+        soup.active_sh_degree = self.active_degree();
+        soup
+    }
+}
+
+impl Trainer for TriangleTrainer {
+    fn step(&mut self, views: &[View], train: &[usize]) -> StepStats {
+        self.step_impl(views, train)
     }
 
-    /// PSNR / SSIM on the views `test` at the current SH degree.
-    pub fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
+    fn evaluate(&self, views: &[View], test: &[usize]) -> Eval {
         let mut soup = self.soup.clone();
         soup.active_sh_degree = self.active_degree();
         let t3 = soup.to_raster();
@@ -464,9 +454,17 @@ impl TriangleTrainer {
         })
     }
 
+    fn iteration(&self) -> u64 {
+        self.iteration
+    }
+
+    fn count(&self) -> usize {
+        self.soup.len()
+    }
+
     /// The first NaN or infinite parameter (vertices, SH, opacity, sigma),
-    /// described ([`crate::train::finite`]); `None` when all are finite.
-    pub fn non_finite(&self) -> Option<String> {
+    /// described ([`crate::train::finite`]).
+    fn non_finite(&self) -> Option<String> {
         use super::finite::{Param, first_non_finite};
         let s = &self.soup;
         let k3 = s.rest_per_channel() * 3;
@@ -485,47 +483,25 @@ impl TriangleTrainer {
         ])
     }
 
-    /// The soup with the active SH degree reached so far (what is saved).
-    pub fn model(&self) -> TriangleSoup {
-        let mut soup = self.soup.clone();
-        soup.active_sh_degree = self.active_degree();
-        soup
-    }
-
-    /// The optimiser and strategy state for a checkpoint: (step, groups).
-    /// The densification accumulators travel as extra groups named
-    /// `state/...` (values in `m`, zeros in `v`).
-    pub fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
+    /// The optimiser groups, then the strategy's statistics.
+    fn optimizer_state(&self) -> (u64, Vec<GroupState>) {
         let mut g = self.groups.state();
-        let st = &self.mcmc;
-        let extra = GroupState::values;
-        g.push(extra("state/importance", st.importance.clone()));
-        g.push(extra("state/visible", st.visible.clone()));
-        g.push(extra("state/image_size", st.image_size.clone()));
-        g.push(extra(
-            "state/counters",
-            vec![st.views as f32, st.steps as f32],
-        ));
+        strategy::save_all(&self.strategies, &mut g);
         (self.iteration, g)
     }
 
-    /// Restores [`TriangleTrainer::optimizer_state`] (the soup was loaded
-    /// into `self.soup`); errors when it belongs to another model.
-    pub fn restore(&mut self, step: u64, groups: Vec<GroupState>) -> Result<(), String> {
+    fn restore(&mut self, step: u64, groups: Vec<GroupState>) -> Result<()> {
         let n = self.soup.len();
         self.groups = Groups::new(Self::specs(&self.params, &self.soup), n);
         self.groups.restore(step, &groups, n)?;
-        let get = |name: &str, len: usize| find_values(&groups, name, len, "triangle");
-        let c = get("state/counters", 2)?;
-        self.mcmc = McmcState {
-            importance: get("state/importance", n)?,
-            visible: get("state/visible", n)?,
-            image_size: get("state/image_size", n)?,
-            views: c[0] as u64,
-            steps: c[1] as u64,
-        };
+        self.strategies = vec![Box::new(Mcmc::new(&self.params, n))];
+        strategy::load_all(&mut self.strategies, &groups, n)?;
         self.iteration = step;
         Ok(())
+    }
+
+    fn take_edits(&mut self) -> Vec<EditReport> {
+        std::mem::take(&mut self.edits)
     }
 }
 
