@@ -57,6 +57,16 @@ impl Error {
         Error::Invalid(msg.into())
     }
 
+    /// A validation error found in the contents of `path`: an
+    /// [`Error::Invalid`] becomes an [`Error::Format`] naming the file;
+    /// other errors (which name their file already) are kept.
+    pub fn in_file(self, path: impl Display) -> Self {
+        match self {
+            Error::Invalid(msg) => Error::format(path, msg),
+            e => e,
+        }
+    }
+
     /// The same error with the role of its file in front of the path
     /// ("prediction mesh.ply: ..."), for commands that read several files
     /// of one kind; an [`Error::Invalid`] gets "role: " in front.

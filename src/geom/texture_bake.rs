@@ -516,7 +516,7 @@ pub fn bake_texture(
     mut on_view: impl FnMut(usize),
 ) -> Result<(Mesh, BakeStats)> {
     let atlas = check_texture_size(mesh.faces.len(), p)?;
-    mesh.validate().map_err(Error::invalid)?;
+    mesh.validate()?;
     for c in cameras {
         c.require_pinhole()
             .map_err(|e| Error::invalid(format!("camera {:?}: {e}", c.name)))?;

@@ -19,6 +19,7 @@
 //! rotations are derived from it by [`crate::geom::binding`].
 
 use super::Mesh;
+use crate::Error;
 
 /// The Gaussian counts per triangle SuGaR defines tables for.
 pub const PER_FACE_CHOICES: [usize; 4] = [1, 3, 4, 6];
@@ -110,17 +111,20 @@ impl BoundGaussians {
 
     /// Checks the counts, the table and the arrays; the message names the
     /// first problem.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> crate::Result<()> {
         if barycentrics(self.per_face).is_none() {
-            return Err(format!(
+            return Err(Error::invalid(format!(
                 "{} Gaussians per triangle: SuGaR defines 1, 3, 4 or 6",
                 self.per_face
-            ));
+            )));
         }
         self.mesh.validate()?;
         let n = self.mesh.faces.len() * self.per_face;
         if self.sh_degree > 3 {
-            return Err(format!("SH degree {} is above 3", self.sh_degree));
+            return Err(Error::invalid(format!(
+                "SH degree {} is above 3",
+                self.sh_degree
+            )));
         }
         let k3 = self.rest_per_channel() * 3;
         let checks = [
@@ -132,18 +136,18 @@ impl BoundGaussians {
         ];
         for (name, got, want) in checks {
             if got != want {
-                return Err(format!(
+                return Err(Error::invalid(format!(
                     "{name}: {got} values, expected {want} ({} faces × {} per face)",
                     self.mesh.faces.len(),
                     self.per_face
-                ));
+                )));
             }
         }
         if !self.log_thickness.is_finite() {
-            return Err(format!(
+            return Err(Error::invalid(format!(
                 "log thickness {} is not a finite number",
                 self.log_thickness
-            ));
+            )));
         }
         Ok(())
     }

@@ -12,6 +12,7 @@
 //!   `f_rest_*` properties are channel-major; the PLY reader/writer transposes.
 
 use super::Extras;
+use crate::Error;
 
 /// A set of Gaussians (see the module docs for conventions).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -139,11 +140,14 @@ impl Gaussians {
     }
 
     /// Checks that every array has one entry per Gaussian.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> crate::Result<()> {
         let n = self.means.len();
         let k = self.rest_per_channel();
         if self.sh_degree > 3 {
-            return Err(format!("SH degree {} is above 3", self.sh_degree));
+            return Err(Error::invalid(format!(
+                "SH degree {} is above 3",
+                self.sh_degree
+            )));
         }
         let checks = [
             ("sh_dc", self.sh_dc.len(), n),
@@ -155,16 +159,18 @@ impl Gaussians {
         ];
         for (name, got, want) in checks {
             if got != want {
-                return Err(format!("{name} has {got} values, expected {want}"));
+                return Err(Error::invalid(format!(
+                    "{name} has {got} values, expected {want}"
+                )));
             }
         }
         for p in &self.extras.item {
             if p.data.rows() != n {
-                return Err(format!(
+                return Err(Error::invalid(format!(
                     "extra property {} has {} rows, expected {n}",
                     p.name,
                     p.data.rows()
-                ));
+                )));
             }
         }
         Ok(())

@@ -2,6 +2,7 @@
 
 use super::Extras;
 use super::texture::Texture;
+use crate::Error;
 
 /// An indexed triangle mesh. Polygons read from files are fan-triangulated.
 /// Optional attributes are either absent or have one entry per vertex / face.
@@ -52,7 +53,7 @@ impl Mesh {
 
     /// Checks that every face index is in range and every attribute has the
     /// right length; the message names the first problem.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> crate::Result<()> {
         let nv = self.vertices.len();
         if let Some((i, f)) = self
             .faces
@@ -60,13 +61,15 @@ impl Mesh {
             .enumerate()
             .find(|(_, f)| f.iter().any(|&v| v as usize >= nv))
         {
-            return Err(format!(
+            return Err(Error::invalid(format!(
                 "face {i} references vertex {} but there are only {nv} vertices",
                 f.iter().max().unwrap()
-            ));
+            )));
         }
         let check = |what: &str, len: Option<usize>, want: usize| match len {
-            Some(l) if l != want => Err(format!("{what} has {l} entries, expected {want}")),
+            Some(l) if l != want => Err(Error::invalid(format!(
+                "{what} has {l} entries, expected {want}"
+            ))),
             _ => Ok(()),
         };
         check("normals", self.normals.as_ref().map(Vec::len), nv)?;

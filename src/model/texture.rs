@@ -27,15 +27,15 @@ pub struct Texture {
 
 impl Texture {
     /// Checks that the pixel count matches the size.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> crate::Result<()> {
         if self.pixels.len() != self.width * self.height {
-            return Err(format!(
+            return Err(crate::Error::invalid(format!(
                 "texture {} has {} texels, expected {}x{}",
                 self.name,
                 self.pixels.len(),
                 self.width,
                 self.height
-            ));
+            )));
         }
         Ok(())
     }

@@ -8,6 +8,7 @@
 
 use super::Extras;
 use super::gaussians::sigmoid;
+use crate::Error;
 
 /// Raw sigma that marks a solid triangle (hard window, σ = 0).
 ///
@@ -136,10 +137,13 @@ impl TriangleSoup {
     }
 
     /// Checks that every array has one entry per triangle.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> crate::Result<()> {
         let n = self.len();
         if self.sh_degree > 3 {
-            return Err(format!("SH degree {} is above 3", self.sh_degree));
+            return Err(Error::invalid(format!(
+                "SH degree {} is above 3",
+                self.sh_degree
+            )));
         }
         let checks = [
             ("opacity", self.opacity_raw.len(), n),
@@ -153,7 +157,9 @@ impl TriangleSoup {
         ];
         for (name, got, want) in checks {
             if got != want {
-                return Err(format!("{name} has {got} values, expected {want}"));
+                return Err(Error::invalid(format!(
+                    "{name} has {got} values, expected {want}"
+                )));
             }
         }
         Ok(())

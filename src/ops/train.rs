@@ -42,7 +42,7 @@ use crate::io::checkpoint;
 use crate::io::dataset::{Dataset, DatasetOptions, MaskMode, load_dataset};
 use crate::io::detect::FileFormat;
 use crate::model::rng::seeded;
-use crate::model::{Camera, PointCloud, rig};
+use crate::model::{Camera, PointCloud, TriangleSoup, rig};
 use crate::train::gaussians::init::{init_gaussians, random_points};
 use crate::train::gaussians::{GaussianParams, GaussianTrainer, Regularize};
 use crate::train::photometric::Eval;
@@ -477,18 +477,20 @@ fn cfg_args(a: &DataArgs, sh_degree: usize) -> String {
 
 /// Writes the files both models share and the checkpoint; returns the
 /// metrics JSON.
-#[allow(clippy::too_many_arguments)]
 fn write_common(
     dir: &Path,
     a: &DataArgs,
     p: &Prepared,
     t: &dyn Trainer,
-    kind: &str,
-    settings: &Value,
-    r: &Outcome,
-    sh_degree: usize,
-    t0: std::time::Instant,
+    f: &Finished,
 ) -> anyhow::Result<Value> {
+    let Finished {
+        kind,
+        settings,
+        outcome: r,
+        sh_degree,
+        t0,
+    } = *f;
     let cams: Vec<Camera> = p.data.views.iter().map(|v| v.camera.clone()).collect();
     write_gs_json(&dir.join("cameras.json"), &cams)?;
     checkpoint::write_bytes(&dir.join("cfg_args"), cfg_args(a, sh_degree).as_bytes())?;
@@ -526,6 +528,76 @@ fn write_common(
     });
     checkpoint::write_json(&dir.join("metrics.json"), &summary)?;
     Ok(summary)
+}
+
+/// What a finished session leaves for [`write_common`].
+#[derive(Clone, Copy)]
+struct Finished<'a> {
+    /// "triangles" or "gaussians".
+    kind: &'static str,
+    /// The settings a resumed run must match.
+    settings: &'a Value,
+    outcome: &'a Outcome,
+    sh_degree: usize,
+    /// When the command started.
+    t0: std::time::Instant,
+}
+
+/// Refuses a checkpoint already past `--iterations`.
+fn check_not_past(t: &dyn Trainer, iterations: u64) -> anyhow::Result<()> {
+    if t.iteration() > iterations {
+        bail!(
+            "the checkpoint is at iteration {} already, past --iterations {iterations}",
+            t.iteration()
+        );
+    }
+    Ok(())
+}
+
+/// The initial soup of a fresh triangle run (one triangle per point, and
+/// the dome's); refused when it exceeds `--max-shapes`.
+fn init_soup(args: &TriangleArgs, p: &Prepared) -> anyhow::Result<TriangleSoup> {
+    let a = &args.data;
+    let init = InitParams {
+        dome: args.dome,
+        ..Default::default()
+    };
+    let soup = init_triangles(&p.points, &init, &mut seeded(a.seed))
+        .with_context(|| format!("initialising from {}", points_source(p, a)))?;
+    if soup.len() > args.max_shapes {
+        return Err(crate::cli::usage(format!(
+            "--max-shapes {} is below the {} initial triangles (one per point of {}{})",
+            args.max_shapes,
+            soup.len(),
+            points_source(p, a),
+            if args.dome {
+                " and the --dome seeds"
+            } else {
+                ""
+            }
+        )));
+    }
+    Ok(soup)
+}
+
+/// The soup in Triangle Splatting's layout (`point_cloud/iteration_N/`:
+/// the state dict and the PLY) and as the checkpoint's model.
+fn write_soup(dir: &Path, model: &TriangleSoup, iteration: u64) -> anyhow::Result<()> {
+    let it_dir = dir.join(format!("point_cloud/iteration_{iteration}"));
+    mkdir(&it_dir)?;
+    mkdir(&dir.join(checkpoint::DIR))?;
+    save_soup(
+        &it_dir.join("point_cloud_state_dict.pt"),
+        model,
+        FileFormat::TorchPt,
+    )?;
+    save_soup(&it_dir.join("triangles.ply"), model, FileFormat::Ply)?;
+    save_soup(
+        &dir.join(checkpoint::DIR).join(checkpoint::MODEL),
+        model,
+        FileFormat::Ply,
+    )?;
+    Ok(())
 }
 
 fn report(
@@ -617,63 +689,24 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
                 .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;
             (t, evals)
         }
-        None => {
-            let init = InitParams {
-                dome: args.dome,
-                ..Default::default()
-            };
-            let soup = init_triangles(&p.points, &init, &mut seeded(a.seed))
-                .with_context(|| format!("initialising from {}", points_source(&p, a)))?;
-            if soup.len() > args.max_shapes {
-                return Err(crate::cli::usage(format!(
-                    "--max-shapes {} is below the {} initial triangles (one per point of {}{})",
-                    args.max_shapes,
-                    soup.len(),
-                    points_source(&p, a),
-                    if args.dome {
-                        " and the --dome seeds"
-                    } else {
-                        ""
-                    }
-                )));
-            }
-            (TriangleTrainer::new(soup, params), Vec::new())
-        }
+        None => (
+            TriangleTrainer::new(init_soup(&args, &p)?, params),
+            Vec::new(),
+        ),
     };
-    if t.iteration() > iterations {
-        bail!(
-            "the checkpoint is at iteration {} already, past --iterations {iterations}",
-            t.iteration()
-        );
-    }
+    check_not_past(&t, iterations)?;
     let r = train_loop(&mut t, &p, a, iterations, evals, "train triangles")?;
     let dir = stage.path().to_path_buf();
     let model = t.model();
-    let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
-    mkdir(&it_dir)?;
-    mkdir(&dir.join(checkpoint::DIR))?;
-    save_soup(
-        &it_dir.join("point_cloud_state_dict.pt"),
-        &model,
-        FileFormat::TorchPt,
-    )?;
-    save_soup(&it_dir.join("triangles.ply"), &model, FileFormat::Ply)?;
-    save_soup(
-        &dir.join(checkpoint::DIR).join(checkpoint::MODEL),
-        &model,
-        FileFormat::Ply,
-    )?;
-    let summary = write_common(
-        &dir,
-        a,
-        &p,
-        &t,
-        "triangles",
-        &settings,
-        &r,
-        model.sh_degree,
+    write_soup(&dir, &model, t.iteration())?;
+    let finished = Finished {
+        kind: "triangles",
+        settings: &settings,
+        outcome: &r,
+        sh_degree: model.sh_degree,
         t0,
-    )?;
+    };
+    let summary = write_common(&dir, a, &p, &t, &finished)?;
     stage.commit()?;
     report(a, "triangles", &summary, &r, model.len())
 }
@@ -731,12 +764,7 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
             Vec::new(),
         ),
     };
-    if t.iteration() > iterations {
-        bail!(
-            "the checkpoint is at iteration {} already, past --iterations {iterations}",
-            t.iteration()
-        );
-    }
+    check_not_past(&t, iterations)?;
     let r = train_loop(&mut t, &p, a, iterations, evals, "train gaussians")?;
     let dir = stage.path().to_path_buf();
     let it_dir = dir.join(format!("point_cloud/iteration_{}", t.iteration()));
@@ -744,17 +772,14 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
     mkdir(&dir.join(checkpoint::DIR))?;
     save_gaussians(&it_dir.join("point_cloud.ply"), &t.model)?;
     save_gaussians(&dir.join(checkpoint::DIR).join(checkpoint::MODEL), &t.model)?;
-    let summary = write_common(
-        &dir,
-        a,
-        &p,
-        &t,
-        "gaussians",
-        &settings,
-        &r,
-        t.model.sh_degree,
+    let finished = Finished {
+        kind: "gaussians",
+        settings: &settings,
+        outcome: &r,
+        sh_degree: t.model.sh_degree,
         t0,
-    )?;
+    };
+    let summary = write_common(&dir, a, &p, &t, &finished)?;
     stage.commit()?;
     report(a, "gaussians", &summary, &r, t.model.len())
 }

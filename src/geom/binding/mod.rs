@@ -29,6 +29,7 @@ use splatkit_render::dual::{Real, cross3, dot3};
 use splatkit_render::gaussian::Gaussians3;
 use splatkit_render::sh::rgb_to_sh;
 
+use crate::Error;
 use crate::model::bound::{BoundGaussians, barycentrics, circle_radius};
 use crate::model::{Gaussians, Mesh};
 
@@ -130,14 +131,14 @@ pub fn quat_from_columns<T: Real>(c: [[T; 3]; 3]) -> [T; 4] {
 /// NaN to everything it touches. Binding and rebinding call it; a mesh
 /// coming from a file is also refused by its loader
 /// (`io::any::load_mesh_finite`), which names the file.
-pub fn check_finite_vertices(vertices: &[[f32; 3]]) -> Result<(), String> {
+pub fn check_finite_vertices(vertices: &[[f32; 3]]) -> crate::Result<()> {
     for (i, v) in vertices.iter().enumerate() {
         if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-            return Err(format!(
+            return Err(Error::invalid(format!(
                 "vertex {i} has a non-finite coordinate ({} = {})",
                 ["x", "y", "z"][k],
                 v[k]
-            ));
+            )));
         }
     }
     Ok(())
@@ -186,28 +187,33 @@ pub fn bind(
     mesh: &Mesh,
     opts: &BindOptions,
     colors: Option<&[[f32; 3]]>,
-) -> Result<BoundGaussians, String> {
+) -> crate::Result<BoundGaussians> {
     let n = opts.per_face;
     let table = barycentrics(n).ok_or_else(|| {
-        format!("--per-triangle {n}: SuGaR defines tables for 1, 3, 4 or 6 Gaussians per triangle")
+        Error::invalid(format!(
+            "--per-triangle {n}: SuGaR defines tables for 1, 3, 4 or 6 Gaussians per triangle"
+        ))
     })?;
     let radius = circle_radius(n).expect("same choices as the table");
     mesh.validate()?;
     check_finite_vertices(&mesh.vertices)?;
     if !(opts.thickness > 0.0 && opts.thickness.is_finite()) {
-        return Err(format!(
+        return Err(Error::invalid(format!(
             "thickness {} is not a positive number",
             opts.thickness
-        ));
+        )));
     }
     if mesh.faces.is_empty() {
-        return Err("the mesh has no faces to bind Gaussians to".into());
+        return Err(Error::invalid("the mesh has no faces to bind Gaussians to"));
     }
     let count = mesh.faces.len() * n;
     if let Some(c) = colors
         && c.len() != count
     {
-        return Err(format!("{} colours for {count} Gaussians", c.len()));
+        return Err(Error::invalid(format!(
+            "{} colours for {count} Gaussians",
+            c.len()
+        )));
     }
     let vcol = |v: u32| -> [f32; 3] {
         match &mesh.vertex_colors {

@@ -24,6 +24,7 @@
 //! The thickness is not changed (SuGaR keeps it constant).
 
 use super::{face_frame, face_vertices, rotation_columns, sub3};
+use crate::Error;
 use crate::model::Mesh;
 use crate::model::bound::BoundGaussians;
 use splatkit_render::dual::dot3;
@@ -50,26 +51,22 @@ fn mean_side(v: &[[f64; 3]; 3]) -> f64 {
 /// `b` bound to `edited` instead of its own mesh. The result carries
 /// `edited` as its mesh (so rebinding can be chained). Errors when the
 /// topology differs or an edited vertex is not finite.
-pub fn rebind(
-    b: &BoundGaussians,
-    edited: &Mesh,
-    rule: ScaleRule,
-) -> Result<BoundGaussians, String> {
+pub fn rebind(b: &BoundGaussians, edited: &Mesh, rule: ScaleRule) -> crate::Result<BoundGaussians> {
     edited.validate()?;
     super::check_finite_vertices(&edited.vertices)?;
     let (fr, fe) = (b.mesh.faces.len(), edited.faces.len());
     if fr != fe {
-        return Err(format!(
+        return Err(Error::invalid(format!(
             "the edited mesh has {fe} faces but the Gaussians are bound to {fr}: rebinding needs \
              the same faces (only vertices may move)"
-        ));
+        )));
     }
     if let Some(f) = (0..fr).find(|&f| b.mesh.faces[f] != edited.faces[f]) {
-        return Err(format!(
+        return Err(Error::invalid(format!(
             "face {f} is {:?} in the edited mesh but {:?} in the bound mesh: rebinding needs the \
              same faces in the same order",
             edited.faces[f], b.mesh.faces[f]
-        ));
+        )));
     }
     let mut out = b.clone();
     out.mesh = edited.clone();

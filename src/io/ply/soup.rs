@@ -109,7 +109,7 @@ pub fn parse_soup(name: &str, bytes: &[u8]) -> Result<TriangleSoup> {
             obj_info: ply.obj_info,
         },
     };
-    soup.validate().map_err(|e| Error::format(name, e))?;
+    soup.validate().map_err(|e| e.in_file(name))?;
     Ok(soup)
 }
 

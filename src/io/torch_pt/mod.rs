@@ -537,7 +537,7 @@ pub fn parse_triangle_checkpoint(name: &str, bytes: &[u8]) -> Result<TriangleSou
     } else {
         plain_soup(&ck)?
     };
-    soup.validate().map_err(|m| Error::format(name, m))?;
+    soup.validate().map_err(|e| e.in_file(name))?;
     Ok(soup)
 }
 
