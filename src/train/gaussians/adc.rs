@@ -32,7 +32,7 @@ use crate::model::Gaussians;
 use crate::model::gaussians::logit;
 use crate::model::optim_state::{GroupState, find_values};
 use crate::model::rng::{Rng, normal, stream};
-use crate::train::groups::Source;
+use crate::train::groups::{Source, gather_rows};
 use crate::train::strategy::{Edit, GaussianObservation, Moments, StepContext, Strategy};
 
 /// Settings (3DGS defaults in [`Default`], extent 1).
@@ -92,15 +92,7 @@ impl AdcState {
 
     /// Keeps the statistics of the rows `sources` (new rows start at 0).
     pub fn remap(&mut self, sources: &[Source]) {
-        let pick = |v: &[f32]| -> Vec<f32> {
-            sources
-                .iter()
-                .map(|s| match *s {
-                    Source::Old(i) => v[i],
-                    Source::New => 0.0,
-                })
-                .collect()
-        };
+        let pick = |v: &[f32]| gather_rows(v, 1, sources, |_| vec![0.0]);
         *self = AdcState {
             grad_sum: pick(&self.grad_sum),
             count: pick(&self.count),

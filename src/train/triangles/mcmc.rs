@@ -41,7 +41,7 @@ use crate::model::TriangleSoup;
 use crate::model::gaussians::{logit, sigmoid};
 use crate::model::optim_state::{GroupState, find_values};
 use crate::model::rng::{Rng, stream};
-use crate::train::groups::Source;
+use crate::train::groups::{Source, gather_rows};
 use crate::train::strategy::{Edit, Moments, StepContext, Strategy};
 use splatkit_render::triangle_stats::TriangleStats;
 
@@ -393,15 +393,7 @@ impl Strategy<TriangleSoup> for Mcmc {
     }
 
     fn remap(&mut self, sources: &[Source]) {
-        let pick = |v: &[f32]| -> Vec<f32> {
-            sources
-                .iter()
-                .map(|s| match *s {
-                    Source::Old(i) => v[i],
-                    Source::New => 0.0,
-                })
-                .collect()
-        };
+        let pick = |v: &[f32]| gather_rows(v, 1, sources, |_| vec![0.0]);
         let st = &mut self.state;
         st.importance = pick(&st.importance);
         st.visible = pick(&st.visible);
