@@ -17,15 +17,15 @@ use serde_json::json;
 use crate::cli::orbit::{SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, positive_f64, shown, unit_f64, usage};
 use crate::geom::tsdf::{
-    BATCH, BlockBounds, Frame, FusionScene, TsdfParams, TsdfVolume, UnboundedParams, UnboundedView,
-    auto_params, bound_from_points, camera_sphere, extract_mesh, fuse_unbounded,
-    keep_largest_clusters, render_view,
+    BATCH, BlockBounds, BoundedInput, ClusterReport, FuseError, FuseProgress, FusionScene,
+    TsdfParams, TsdfVolume, UnboundedInput, ViewMaps, auto_params, camera_sphere, fuse_views,
+    fuse_views_unbounded, keep_largest_clusters, render_view,
 };
 use crate::io::any::{MeshWriteOptions, load_kinds, output_format, save_mesh};
 use crate::io::cameras::read_cameras;
 use crate::io::depth::{find_depth, find_image, read_depth, read_mask_values, read_rgb8};
 use crate::io::detect::FileFormat;
-use crate::model::{self, Camera, SceneKind, rig};
+use crate::model::{self, Camera, Mesh, SceneKind, rig};
 
 /// Arguments of `tsdf-fuse`.
 #[derive(Args, Debug, Clone)]
@@ -212,11 +212,62 @@ pub fn fuse_image_bytes(cams: &[Camera], unbounded: bool) -> u64 {
     }
 }
 
-/// `tsdf-fuse` entry point.
+/// `tsdf-fuse` entry point: checks the flags, finds every input, checks
+/// the memory budget, fuses ([`fuse`]), filters the clusters, writes the
+/// mesh and reports.
 pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
     args.common.init()?;
     args.common.check_output(&args.output, true)?;
     let format = output_format(&args.output, None, FileFormat::Ply)?;
+    check_flags(&args)?;
+    let t0 = std::time::Instant::now();
+    let cams = read_fusion_cameras(&args)?;
+    let files = find_view_files(&args, &cams)?;
+    let (params, how, bounds) = plan(&args, &cams)?;
+    // the DTU recipe's ratio, 1, is also the default
+    let depth_ratio = args.depth_ratio as f32;
+    let scene = load_fusion_scene(&args)?;
+    let with_color = !args.no_color
+        && match &scene {
+            Some(s) => s.has_color(),
+            None => args.color.is_some(),
+        };
+    let setup = FuseSetup {
+        cams: &cams,
+        files: &files,
+        scene: scene.as_ref(),
+        params,
+        how,
+        bounds,
+        with_color,
+        depth_ratio,
+    };
+    let mut fused = fuse(&args, &setup)?;
+    let raw = (fused.mesh.vertices.len(), fused.mesh.faces.len());
+    let k = args.keep_clusters.or(args.dtu.then_some(1));
+    let clusters = k.map(|k| keep_largest_clusters(&mut fused.mesh, k, args.min_cluster_faces));
+    if fused.mesh.faces.is_empty() {
+        return Err(empty_mesh_error(&args, &params, cams.len(), raw.1));
+    }
+    save_mesh(
+        &args.output,
+        &fused.mesh,
+        format,
+        &MeshWriteOptions::default(),
+    )?;
+    report(
+        &args,
+        &setup,
+        &fused,
+        raw,
+        clusters,
+        t0.elapsed().as_secs_f64(),
+    )
+}
+
+/// The usage errors among the flags, and a `--depth`, `--color` or
+/// `--masks` that is not a folder; before anything is read.
+fn check_flags(args: &TsdfFuseArgs) -> anyhow::Result<()> {
     match (&args.scene, &args.depth) {
         (Some(_), Some(_)) => return Err(usage("give a scene or --depth DIR, not both")),
         (None, None) => return Err(usage("give a scene to render, or --depth DIR")),
@@ -252,7 +303,12 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
             bail!("{flag} {}: not a folder", d.display());
         }
     }
-    let t0 = std::time::Instant::now();
+    Ok(())
+}
+
+/// The cameras of `--cameras`, downscaled by `--downscale` (sizes and
+/// intrinsics in pixels of the render), each a pinhole.
+fn read_fusion_cameras(args: &TsdfFuseArgs) -> anyhow::Result<Vec<Camera>> {
     let cams: Vec<Camera> = read_cameras(&args.cameras)
         .with_context(|| format!("reading cameras {}", args.cameras.display()))?
         .into_iter()
@@ -262,9 +318,12 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
         c.require_pinhole()
             .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
     }
-    // Every input file is found before any work.
-    let files: Vec<ViewFiles> = cams
-        .iter()
+    Ok(cams)
+}
+
+/// Every camera's depth, colour and mask file, found before any work.
+fn find_view_files(args: &TsdfFuseArgs, cams: &[Camera]) -> anyhow::Result<Vec<ViewFiles>> {
+    cams.iter()
         .map(|c| -> anyhow::Result<ViewFiles> {
             Ok(ViewFiles {
                 depth: args
@@ -284,42 +343,50 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
                     .transpose()?,
             })
         })
-        .collect::<anyhow::Result<_>>()?;
-    // The image buffers the cameras' sizes make (a file's: exit 1), then
-    // the grid the flags make (exit 2), before anything is rendered or read.
-    let image_bytes = fuse_image_bytes(&cams, args.unbounded);
+        .collect::<anyhow::Result<_>>()
+}
+
+/// The fusion's settings within the memory budget, before anything is
+/// rendered or read: the image buffers the cameras' sizes make (a file's:
+/// exit 1), then the grid the flags make (exit 2). Returns the bounded
+/// fusion's parameters (placeholders with `--unbounded`), where they came
+/// from, and their block bounds.
+fn plan(args: &TsdfFuseArgs, cams: &[Camera]) -> anyhow::Result<(TsdfParams, String, BlockBounds)> {
+    let image_bytes = fuse_image_bytes(cams, args.unbounded);
     check_image_budget(
         SizeFrom::File(&args.cameras),
         &format!(
             "the depth maps of {} views (largest {})",
             cams.len(),
-            largest_size(&cams)
+            largest_size(cams)
         ),
         image_bytes,
     )?;
-    let (params, how, bounds) = if args.unbounded {
-        crate::io::budget::check(
-            &format!(
-                "--unbounded --mesh-res {}: the contracted grid ({} samples per axis) beside the depth maps",
-                args.mesh_res,
-                crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res)
-            ),
-            crate::geom::tsdf::unbounded::grid_bytes(args.mesh_res).saturating_add(image_bytes),
-        )
-        .map_err(|e| usage(e.to_string()))?;
-        let p = TsdfParams::new(1.0, 1.0, 1.0);
-        let b = p.block_bounds(&[]);
-        (p, "unbounded".to_string(), b)
-    } else {
-        resolve_params(&args, &cams, image_bytes)?
-    };
-    // the DTU recipe's ratio, 1, is also the default
-    let depth_ratio = args.depth_ratio as f32;
+    if !args.unbounded {
+        return resolve_params(args, cams, image_bytes);
+    }
+    crate::io::budget::check(
+        &format!(
+            "--unbounded --mesh-res {}: the contracted grid ({} samples per axis) beside the depth maps",
+            args.mesh_res,
+            crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res)
+        ),
+        crate::geom::tsdf::unbounded::grid_bytes(args.mesh_res).saturating_add(image_bytes),
+    )
+    .map_err(|e| usage(e.to_string()))?;
+    let p = TsdfParams::new(1.0, 1.0, 1.0);
+    let b = p.block_bounds(&[]);
+    Ok((p, "unbounded".to_string(), b))
+}
+
+/// The scene to render depth from, if one was given; an error when it
+/// holds no primitive (every depth map would be empty, so nothing can be
+/// fused).
+fn load_fusion_scene(args: &TsdfFuseArgs) -> anyhow::Result<Option<FusionScene>> {
     let scene = match &args.scene {
         Some(p) => Some(load_scene(p)?),
         None => None,
     };
-    // no primitive: every depth map would be empty, so nothing can be fused
     if let (Some(p), Some(sc)) = (&args.scene, &scene) {
         let n = match sc {
             FusionScene::Gaussians(g) => g.len(),
@@ -330,93 +397,151 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
             bail!("{}: holds no primitives: nothing to fuse", shown(p, false));
         }
     }
-    let with_color = !args.no_color
-        && match &scene {
-            Some(s) => s.has_color(),
-            None => args.color.is_some(),
-        };
-    let pb = args.common.progress(cams.len() as u64, "tsdf-fuse");
-    let mut views = Vec::with_capacity(cams.len());
+    Ok(scene)
+}
+
+/// Everything [`fuse`] and [`report`] take besides the flags: the
+/// cameras and their files, the scene, the bounded fusion's settings
+/// ([`plan`]), whether colours are fused, and the depth ratio.
+struct FuseSetup<'a> {
+    cams: &'a [Camera],
+    files: &'a [ViewFiles],
+    scene: Option<&'a FusionScene>,
+    params: TsdfParams,
+    how: String,
+    bounds: BlockBounds,
+    with_color: bool,
+    depth_ratio: f32,
+}
+
+/// What [`fuse`] made: the mesh (scene units, before the cluster filter),
+/// the per-view and volume entries of the report, the count of depth
+/// values that were not usable, and the seconds of integration and
+/// extraction.
+struct Fused {
+    mesh: Mesh,
+    views: Vec<serde_json::Value>,
+    volume: serde_json::Value,
+    bad_depth: usize,
+    fuse_time: f64,
+}
+
+/// Fuses every camera's view, rendered or read by [`load_view`], with
+/// [`fuse_views_unbounded`] (`--unbounded`) or [`fuse_views`], under a
+/// progress bar.
+fn fuse(args: &TsdfFuseArgs, s: &FuseSetup) -> anyhow::Result<Fused> {
+    let pb = args.common.progress(s.cams.len() as u64, "tsdf-fuse");
+    let progress = |p: FuseProgress| match p {
+        FuseProgress::Views(n) => pb.inc(n as u64),
+        FuseProgress::ViewsDone => pb.finish_and_clear(),
+    };
     let mut bad_depth = 0usize;
-    let mut volume = json!(null);
-    // integration and extraction only (what Open3D's timings cover)
-    let mut fuse_time = 0.0f64;
-    let mut mesh = if args.unbounded {
-        // every map is needed at once: the grid is filled tile by tile
-        let mut maps = Vec::with_capacity(cams.len());
-        for (cam, f) in cams.iter().zip(&files) {
-            let (d, rgb, bad) = load_view(&args, scene.as_ref(), cam, f, depth_ratio)?;
-            bad_depth += bad;
-            views.push(json!({
-                "camera": cam.name,
-                "valid_pixels": d.iter().filter(|&&z| z > 0.0).count(),
-            }));
-            maps.push((d, if with_color { rgb } else { None }));
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
-        let sphere = camera_sphere(&cams)?;
-        let bound = match args.bound {
-            Some(b) => b,
-            None => {
-                let pts = match &scene {
-                    Some(s) => s.points(),
-                    None => cams
-                        .iter()
-                        .zip(&maps)
-                        .flat_map(|(c, (d, _))| depth_points(c, d))
-                        .collect(),
-                };
-                bound_from_points(&pts, sphere.center, sphere.radius)
-            }
-        };
-        let uv: Vec<UnboundedView> = cams
-            .iter()
-            .zip(&maps)
-            .map(|(c, (d, rgb))| UnboundedView {
-                camera: c,
-                depth: d,
-                rgb: rgb.as_deref(),
-            })
-            .collect();
-        let up = UnboundedParams {
-            center: sphere.center,
-            radius: sphere.radius,
-            resolution: args.mesh_res,
-            bound,
-            max_range: 32.0,
-        };
-        volume = json!({
-            "unbounded": true,
-            "center": sphere.center.to_array(),
-            "radius": sphere.radius,
-            "bound": bound,
-            "resolution": args.mesh_res,
-            "samples_per_axis": crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res),
-        });
-        fuse_unbounded(&uv, &up)?
+    let load = |i: usize| -> anyhow::Result<ViewMaps> {
+        let (depth, rgb, bad) = load_view(args, s.scene, &s.cams[i], &s.files[i], s.depth_ratio)?;
+        bad_depth += bad;
+        Ok(ViewMaps { depth, rgb })
+    };
+    let mut fused = if args.unbounded {
+        fuse_unbounded(args, s, load, &progress)?
     } else {
-        let mut vol = TsdfVolume::new(params, with_color)?;
-        let pairs: Vec<(&Camera, &ViewFiles)> = cams.iter().zip(&files).collect();
-        for chunk in pairs.chunks(BATCH) {
-            let mut loaded = Vec::with_capacity(chunk.len());
-            for (cam, f) in chunk {
-                let (depth, rgb, bad) = load_view(&args, scene.as_ref(), cam, f, depth_ratio)?;
-                bad_depth += bad;
-                loaded.push((depth, if with_color { rgb } else { None }));
-            }
-            let frames: Vec<Frame> = chunk
-                .iter()
-                .zip(&loaded)
-                .map(|((cam, _), (depth, rgb))| Frame {
-                    camera: cam,
-                    depth,
-                    color: rgb.as_deref(),
-                })
-                .collect();
-            let t = std::time::Instant::now();
-            let stats = vol.integrate_batch(&frames).with_context(|| {
-                let names: Vec<&str> = chunk.iter().map(|(c, _)| c.name.as_str()).collect();
+        fuse_bounded(s, load, &progress)?
+    };
+    fused.bad_depth = bad_depth;
+    Ok(fused)
+}
+
+/// [`fuse_views_unbounded`] on the views `load` gives, with the report's
+/// entries (`bad_depth` left 0; `fuse_time` 0, as the unbounded fusion is
+/// not timed).
+fn fuse_unbounded(
+    args: &TsdfFuseArgs,
+    s: &FuseSetup,
+    load: impl FnMut(usize) -> anyhow::Result<ViewMaps>,
+    progress: &dyn Fn(FuseProgress),
+) -> anyhow::Result<Fused> {
+    let input = UnboundedInput {
+        cameras: s.cams,
+        with_color: s.with_color,
+        resolution: args.mesh_res,
+        bound: args.bound,
+        scene: s.scene,
+    };
+    let out = fuse_views_unbounded(&input, load, progress).map_err(|e| fuse_error(e, &s.params))?;
+    let views = s
+        .cams
+        .iter()
+        .zip(&out.valid_pixels)
+        .map(|(cam, n)| json!({ "camera": cam.name, "valid_pixels": n }))
+        .collect();
+    let volume = json!({
+        "unbounded": true,
+        "center": out.center.to_array(),
+        "radius": out.radius,
+        "bound": out.bound,
+        "resolution": args.mesh_res,
+        "samples_per_axis": crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res),
+    });
+    Ok(Fused {
+        mesh: out.mesh,
+        views,
+        volume,
+        bad_depth: 0,
+        fuse_time: 0.0,
+    })
+}
+
+/// [`fuse_views`] on the views `load` gives, with the report's entries
+/// (`bad_depth` left 0).
+fn fuse_bounded(
+    s: &FuseSetup,
+    load: impl FnMut(usize) -> anyhow::Result<ViewMaps>,
+    progress: &dyn Fn(FuseProgress),
+) -> anyhow::Result<Fused> {
+    let input = BoundedInput {
+        cameras: s.cams,
+        params: s.params,
+        with_color: s.with_color,
+    };
+    let out = fuse_views(&input, load, progress).map_err(|e| fuse_error(e, &s.params))?;
+    let views = s
+        .cams
+        .iter()
+        .zip(&out.views)
+        .map(|(cam, st)| {
+            json!({
+                "camera": cam.name,
+                "valid_pixels": st.valid_pixels,
+                "blocks_touched": st.touched,
+            })
+        })
+        .collect();
+    let volume = json!({
+        "voxel": s.params.voxel,
+        "sdf_trunc": s.params.sdf_trunc,
+        "depth_trunc": s.params.depth_trunc,
+        "params_from": s.how,
+        "blocks": out.blocks,
+        "blocks_bound": s.bounds.upper,
+        "volume_bytes": out.volume_bytes,
+    });
+    Ok(Fused {
+        mesh: out.mesh,
+        views,
+        volume,
+        bad_depth: 0,
+        fuse_time: out.fuse_seconds,
+    })
+}
+
+/// A fusion pipeline's error as the command reports it: a batch that
+/// failed to integrate names its cameras, the flags and the memory budget.
+fn fuse_error(e: FuseError<anyhow::Error>, params: &TsdfParams) -> anyhow::Error {
+    match e {
+        FuseError::View(e) => e,
+        FuseError::Fusion(e) => e.into(),
+        FuseError::Batch { cameras, source } => Err::<(), _>(source)
+            .with_context(|| {
+                let names = cameras;
                 format!(
                     "fusing cameras {names:?} (--voxel {}, --sdf-trunc {}, --depth-trunc {}: at \
                      most {} blocks fit this process's memory budget of {})",
@@ -426,64 +551,59 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
                     params.max_blocks,
                     crate::io::budget::human_bytes(crate::io::budget::usable_bytes())
                 )
-            })?;
-            fuse_time += t.elapsed().as_secs_f64();
-            for ((cam, _), st) in chunk.iter().zip(stats) {
-                views.push(json!({
-                    "camera": cam.name,
-                    "valid_pixels": st.valid_pixels,
-                    "blocks_touched": st.touched,
-                }));
-            }
-            pb.inc(chunk.len() as u64);
-        }
-        pb.finish_and_clear();
-        volume = json!({
-            "voxel": params.voxel,
-            "sdf_trunc": params.sdf_trunc,
-            "depth_trunc": params.depth_trunc,
-            "params_from": how,
-            "blocks": vol.len(),
-            "blocks_bound": bounds.upper,
-            "volume_bytes": vol.memory_bytes(),
-        });
-        let t = std::time::Instant::now();
-        let m = extract_mesh(&vol);
-        fuse_time += t.elapsed().as_secs_f64();
-        m
-    };
-    let raw = (mesh.vertices.len(), mesh.faces.len());
-    let k = args.keep_clusters.or(args.dtu.then_some(1));
-    let clusters = k.map(|k| keep_largest_clusters(&mut mesh, k, args.min_cluster_faces));
-    if mesh.faces.is_empty() {
-        if raw.1 > 0 {
-            // the fusion made a surface; the cluster filter removed it all
-            bail!(
-                "the fused mesh is empty after the cluster filter: all {} faces are in \
-                 clusters of fewer than --min-cluster-faces {} faces; nothing written",
-                raw.1,
-                args.min_cluster_faces
-            );
-        }
-        if args.unbounded {
-            bail!(
-                "the fused mesh is empty: the contracted grid has no zero crossing in {} views; \
-                 check the depth units (--depth-scale) and --bound",
-                cams.len()
-            );
-        }
-        bail!(
-            "the fused mesh is empty: no surface was seen from both sides within --sdf-trunc \
-             ({:.6}) in {} views; check --depth-trunc ({:.6}), the depth units (--depth-scale) \
-             and the voxel size ({:.6})",
-            params.sdf_trunc,
-            cams.len(),
-            params.depth_trunc,
-            params.voxel
+            })
+            .unwrap_err(),
+    }
+}
+
+/// The error of a fused mesh with no face left: removed by the cluster
+/// filter (`raw_faces` > 0), or never made (the hint names the flags that
+/// set the grid).
+fn empty_mesh_error(
+    args: &TsdfFuseArgs,
+    params: &TsdfParams,
+    views: usize,
+    raw_faces: usize,
+) -> anyhow::Error {
+    if raw_faces > 0 {
+        // the fusion made a surface; the cluster filter removed it all
+        return anyhow::anyhow!(
+            "the fused mesh is empty after the cluster filter: all {} faces are in \
+             clusters of fewer than --min-cluster-faces {} faces; nothing written",
+            raw_faces,
+            args.min_cluster_faces
         );
     }
-    save_mesh(&args.output, &mesh, format, &MeshWriteOptions::default())?;
-    let secs = t0.elapsed().as_secs_f64();
+    if args.unbounded {
+        return anyhow::anyhow!(
+            "the fused mesh is empty: the contracted grid has no zero crossing in {} views; \
+             check the depth units (--depth-scale) and --bound",
+            views
+        );
+    }
+    anyhow::anyhow!(
+        "the fused mesh is empty: no surface was seen from both sides within --sdf-trunc \
+         ({:.6}) in {} views; check --depth-trunc ({:.6}), the depth units (--depth-scale) \
+         and the voxel size ({:.6})",
+        params.sdf_trunc,
+        views,
+        params.depth_trunc,
+        params.voxel
+    )
+}
+
+/// The human summary (stderr) and the JSON report of a written mesh:
+/// `raw` is the fused mesh's (vertices, faces) before the cluster filter,
+/// `secs` the run's seconds so far.
+fn report(
+    args: &TsdfFuseArgs,
+    s: &FuseSetup,
+    fused: &Fused,
+    raw: (usize, usize),
+    clusters: Option<ClusterReport>,
+    secs: f64,
+) -> anyhow::Result<()> {
+    let (params, how, volume, mesh) = (&s.params, &s.how, &fused.volume, &fused.mesh);
     let setting = if args.unbounded {
         format!(
             "unbounded, resolution {}, bound {:.3}",
@@ -501,7 +621,7 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
     };
     args.common.say(format!(
         "tsdf-fuse: {} views, {setting} -> {} vertices, {} faces{} ({secs:.1} s)",
-        cams.len(),
+        s.cams.len(),
         mesh.vertices.len(),
         mesh.faces.len(),
         clusters
@@ -512,16 +632,16 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
         "scene": args.scene.as_ref().map(|p| shown(p, false)),
         "depth": args.depth.as_ref().map(|p| p.display().to_string()),
         "cameras": args.cameras.display().to_string(),
-        "views": views,
-        "depth_ratio": depth_ratio,
-        "invalid_depth_pixels": bad_depth,
+        "views": fused.views,
+        "depth_ratio": s.depth_ratio,
+        "invalid_depth_pixels": fused.bad_depth,
         "raw_vertices": raw.0,
         "raw_faces": raw.1,
         "vertices": mesh.vertices.len(),
         "faces": mesh.faces.len(),
         "output": args.output.display().to_string(),
         "seconds": secs,
-        "fuse_seconds": fuse_time,
+        "fuse_seconds": fused.fuse_time,
     });
     if let (Some(r), Some(v)) = (report.as_object_mut(), volume.as_object()) {
         for (key, val) in v {
@@ -542,7 +662,7 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
 
 /// One camera's maps: depth, colour (when there is one), and the count of
 /// depth values that were not usable.
-type ViewMaps = (Vec<f32>, Option<Vec<[u8; 3]>>, usize);
+type LoadedView = (Vec<f32>, Option<Vec<[u8; 3]>>, usize);
 
 /// One camera's depth (masked; NaN, infinite and negative values set to
 /// 0) and colour, rendered from `scene` or read from `f`; the count of
@@ -553,7 +673,7 @@ fn load_view(
     cam: &Camera,
     f: &ViewFiles,
     depth_ratio: f32,
-) -> anyhow::Result<ViewMaps> {
+) -> anyhow::Result<LoadedView> {
     let mask = match &f.mask {
         Some(p) => {
             let (mw, mh, m) = read_mask_values(p)?;
@@ -598,22 +718,6 @@ fn load_view(
         }
     }
     Ok((depth, rgb, bad))
-}
-
-/// World points of every 8th pixel (rows and columns) with a depth.
-fn depth_points(cam: &Camera, depth: &[f32]) -> Vec<[f32; 3]> {
-    let (w, h) = (cam.width as usize, cam.height as usize);
-    let mut out = Vec::new();
-    for i in (0..h).step_by(8) {
-        for j in (0..w).step_by(8) {
-            let z = depth[i * w + j] as f64;
-            if z > 0.0 {
-                let p = rig::back_project(cam, j, i, z);
-                out.push([p.x as f32, p.y as f32, p.z as f32]);
-            }
-        }
-    }
-    out
 }
 
 /// A mask at the camera's size: as it is, or box-averaged when it is an
