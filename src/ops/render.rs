@@ -370,9 +370,45 @@ fn ground_truth(dir: &Path, cam: &Camera, stem: &str) -> anyhow::Result<PathBuf>
         })
 }
 
-/// `render` entry point.
+/// `render` entry point: checks the flags, stages the output folder,
+/// loads the scene and the cameras, renders and writes every view
+/// ([`render_views`]), commits the folder and reports.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    check_flags(&args)?;
+    // Files go to a staging folder moved into place only when every view
+    // was rendered and compared, so a failed run leaves the output as it
+    // was; made first, so an unusable output path fails before any work.
+    let staged = StagedDir::new(&args.output)
+        .with_context(|| format!("creating {}", args.output.display()))?;
+    let orbit = orbit_spec(&args)?;
+    let t0 = std::time::Instant::now();
+    let scene = load_render_scene(&args)?;
+    let cams = render_cameras(&args, &scene, orbit.as_ref())?;
+    // Every ground-truth image is found before anything is rendered or
+    // written, so a missing one cannot leave the output folder half-replaced.
+    let gt_paths: Vec<Option<PathBuf>> = cams
+        .iter()
+        .enumerate()
+        .map(|(i, cam)| {
+            args.compare
+                .as_ref()
+                .map(|dir| ground_truth(dir, cam, &stem(cam, i)))
+                .transpose()
+        })
+        .collect::<anyhow::Result<_>>()?;
+    if args.cameras.is_none() {
+        // keep the made-up views so other scenes can be rendered from them
+        crate::io::cameras::write_gs_json(&staged.path().join("cameras.json"), &cams)?;
+    }
+    let rendered = render_views(&args, &scene, &cams, &gt_paths, staged.path())?;
+    staged.commit()?;
+    report(&args, &scene, cams.len(), &rendered, t0)
+}
+
+/// The usage errors among `--outputs`, `--background` and
+/// `--depth-scale`, before anything is made.
+fn check_flags(args: &RenderArgs) -> anyhow::Result<()> {
     for item in &args.outputs {
         if !["rgb", "depth", "alpha", "normal"].contains(&item.as_str()) {
             return Err(usage(format!(
@@ -386,12 +422,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !(args.depth_scale > 0.0 && args.depth_scale.is_finite()) {
         return Err(usage("--depth-scale must be positive"));
     }
-    // Files go to a staging folder moved into place only when every view
-    // was rendered and compared, so a failed run leaves the output as it
-    // was; made first, so an unusable output path fails before any work.
-    let staged = StagedDir::new(&args.output)
-        .with_context(|| format!("creating {}", args.output.display()))?;
-    // The orbit flags are checked before the scene is read.
+    Ok(())
+}
+
+/// The orbit of the `--orbit` flags when no camera file is given, checked
+/// (with its image buffers against the memory budget) before the scene is
+/// read; `None` with `--cameras`.
+fn orbit_spec(args: &RenderArgs) -> anyhow::Result<Option<model::OrbitSpec>> {
     let orbit = match &args.cameras {
         Some(_) => None,
         None => Some(args.orbit.spec(args.orbit.orbit.unwrap_or(8))?),
@@ -407,7 +444,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             ),
         )?;
     }
-    let t0 = std::time::Instant::now();
+    Ok(orbit)
+}
+
+/// The scene, ready to rasterise: an error when it holds no primitive (the
+/// images would show the background only); a note when a mesh has texture
+/// coordinates but no texture image.
+fn load_render_scene(args: &RenderArgs) -> anyhow::Result<Raster> {
     let scene = load_scene(&args.scene)
         .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
     // Images of nothing but the background are not a render of the scene.
@@ -428,7 +471,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             shown(&args.scene, false)
         ));
     }
-    let cams = match (&args.cameras, &orbit) {
+    Ok(scene)
+}
+
+/// The cameras to render from: the camera file's, or the `orbit` around
+/// the scene's points; each a pinhole, and a camera file's largest view
+/// within the memory budget.
+fn render_cameras(
+    args: &RenderArgs,
+    scene: &Raster,
+    orbit: Option<&model::OrbitSpec>,
+) -> anyhow::Result<Vec<Camera>> {
+    let cams = match (&args.cameras, orbit) {
         (Some(p), _) => {
             read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?
         }
@@ -452,23 +506,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             render_bytes(image_bytes(&cams, 1, 0), args.compare.is_some()),
         )?;
     }
-    // Every ground-truth image is found before anything is rendered or
-    // written, so a missing one cannot leave the output folder half-replaced.
-    let gt_paths: Vec<Option<PathBuf>> = cams
-        .iter()
-        .enumerate()
-        .map(|(i, cam)| {
-            args.compare
-                .as_ref()
-                .map(|dir| ground_truth(dir, cam, &stem(cam, i)))
-                .transpose()
-        })
-        .collect::<anyhow::Result<_>>()?;
-    let out_dir = staged.path();
-    if args.cameras.is_none() {
-        // keep the made-up views so other scenes can be rendered from them
-        crate::io::cameras::write_gs_json(&out_dir.join("cameras.json"), &cams)?;
-    }
+    Ok(cams)
+}
+
+/// What [`render_views`] did: each view's report entry (camera, files,
+/// PSNR and SSIM with `--compare`) and the sums of PSNR (dB) and SSIM.
+struct Rendered {
+    views: Vec<serde_json::Value>,
+    psnr_sum: f64,
+    ssim_sum: f64,
+}
+
+/// Renders every camera's view of `scene`, writes its images into
+/// `out_dir` and, where `gt_paths` has its ground truth, compares the
+/// colour render with it; one view at a time, under a progress bar.
+fn render_views(
+    args: &RenderArgs,
+    scene: &Raster,
+    cams: &[Camera],
+    gt_paths: &[Option<PathBuf>],
+    out_dir: &Path,
+) -> anyhow::Result<Rendered> {
     let s = RasterSettings {
         background: [args.background[0], args.background[1], args.background[2]],
         near: args.near,
@@ -482,7 +540,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut views = Vec::new();
     let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
     for (i, cam) in cams.iter().enumerate() {
-        let out = render_view(&scene, cam, &s, args.shading);
+        let out = render_view(scene, cam, &s, args.shading);
         let st = stem(cam, i);
         let files = write_view(
             &out,
@@ -494,25 +552,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         )?;
         let mut v = json!({ "camera": cam.name, "files": files });
         if let Some(gt_path) = &gt_paths[i] {
-            let gt = read_png_rgb(gt_path)?;
-            if (gt.width, gt.height) != (out.width, out.height) {
-                bail!(
-                    "{}: {}x{} pixels, but camera {:?} renders {}x{}",
-                    gt_path.display(),
-                    gt.width,
-                    gt.height,
-                    cam.name,
-                    out.width,
-                    out.height
-                );
-            }
-            let img: Vec<[f32; 3]> = out
-                .rgb
-                .iter()
-                .map(|p| p.map(|v| v.clamp(0.0, 1.0)))
-                .collect();
-            let p = psnr(&img, &gt.pixels);
-            let q = ssim(&img, &gt.pixels, out.width, out.height);
+            let (p, q) = compare_view(gt_path, cam, &out)?;
             psnr_sum += p;
             ssim_sum += q;
             v["psnr"] = json!(p);
@@ -524,31 +564,72 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         pb.inc(1);
     }
     pb.finish_and_clear();
-    staged.commit()?;
-    let n = cams.len().max(1) as f64;
+    Ok(Rendered {
+        views,
+        psnr_sum,
+        ssim_sum,
+    })
+}
+
+/// PSNR (dB) and SSIM of the colour render `out` of `cam`, clamped to
+/// [0, 1], against the ground-truth PNG at `gt_path`, which must have the
+/// render's size.
+fn compare_view(gt_path: &Path, cam: &Camera, out: &RenderOutput) -> anyhow::Result<(f64, f64)> {
+    let gt = read_png_rgb(gt_path)?;
+    if (gt.width, gt.height) != (out.width, out.height) {
+        bail!(
+            "{}: {}x{} pixels, but camera {:?} renders {}x{}",
+            gt_path.display(),
+            gt.width,
+            gt.height,
+            cam.name,
+            out.width,
+            out.height
+        );
+    }
+    let img: Vec<[f32; 3]> = out
+        .rgb
+        .iter()
+        .map(|p| p.map(|v| v.clamp(0.0, 1.0)))
+        .collect();
+    let p = psnr(&img, &gt.pixels);
+    let q = ssim(&img, &gt.pixels, out.width, out.height);
+    Ok((p, q))
+}
+
+/// The human summary (stderr: the mean PSNR and SSIM with `--compare`,
+/// then the counts and seconds since `t0`) and the JSON report.
+fn report(
+    args: &RenderArgs,
+    scene: &Raster,
+    n_cams: usize,
+    r: &Rendered,
+    t0: std::time::Instant,
+) -> anyhow::Result<()> {
+    let n = n_cams.max(1) as f64;
     let mut report = json!({
         "scene": shown(&args.scene, false),
         "kind": scene.kind(),
         "primitives": scene.len(),
-        "views": views,
+        "views": r.views,
         "output": args.output.display().to_string(),
         "seconds": t0.elapsed().as_secs_f64(),
     });
     if args.compare.is_some() {
-        report["mean_psnr"] = json!(psnr_sum / n);
-        report["mean_ssim"] = json!(ssim_sum / n);
+        report["mean_psnr"] = json!(r.psnr_sum / n);
+        report["mean_ssim"] = json!(r.ssim_sum / n);
         args.common.say(format!(
             "mean over {} views: PSNR {:.2} dB, SSIM {:.4}",
-            cams.len(),
-            psnr_sum / n,
-            ssim_sum / n
+            n_cams,
+            r.psnr_sum / n,
+            r.ssim_sum / n
         ));
     }
     args.common.say(format!(
         "render: {} {} from {} cameras into {} ({:.1} s)",
         scene.len(),
         scene.kind(),
-        cams.len(),
+        n_cams,
         args.output.display(),
         t0.elapsed().as_secs_f64()
     ));
