@@ -21,6 +21,10 @@ use crate::eval::chamfer::{
 };
 use crate::eval::cull::{CullView, DILATION_RADIUS, dilate_disk};
 use crate::eval::dtu::{DtuParams, DtuPrediction, DtuReport, evaluate_dtu, vis_color};
+use crate::eval::tnt::{
+    TntInput, TntParams, TntReport, evaluate_tnt, plot_pr_curves, tnt_threshold,
+    vertices_and_face_centroids,
+};
 use crate::geom::sample::dtu_sample_estimate;
 use crate::io::StagedDir;
 use crate::io::any::{load_kinds, load_mesh, load_points};
@@ -28,7 +32,7 @@ use crate::io::cameras::npz::{NpzOptions, read_neus_cameras};
 use crate::io::cameras::validate_cameras;
 use crate::io::image::read_mask;
 use crate::io::ply::{Format, points::write_points};
-use crate::model::{PointCloud, Scene, SceneKind};
+use crate::model::{CropVolume, PointCloud, Scene, SceneKind};
 use crate::{Error, Result};
 
 /// Bytes one sampled point costs through an evaluation (f64 position, its
@@ -546,10 +550,121 @@ fn hot_r(d: f64, tau: f64) -> [u8; 3] {
     [c(h * 3.0), c(h * 3.0 - 1.0), c(h * 3.0 - 2.0)]
 }
 
+/// `--protocol tnt`: resolves the files ([`tnt_setup`]), reads them
+/// ([`load_tnt`]), runs [`evaluate_tnt`], writes the plot and the
+/// point clouds and toolbox files ([`write_tnt_outputs`]) and reports.
 fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
-    use crate::eval::tnt::{
-        TntParams, evaluate_tnt, plot_pr_curves, tnt_threshold, vertices_and_face_centroids,
+    let setup = tnt_setup(args)?;
+    let data = load_tnt(args, &setup)?;
+    let mut params = TntParams::default();
+    params.ransac.seed = args.seed;
+    let report = evaluate_tnt(&data.input(), setup.tau, &params)?;
+    let scene = setup.scene.as_str();
+    write_tnt_outputs(args, setup.vis, setup.toolbox_out, &report, scene)?;
+    args.common.say(format!(
+        "tnt {scene}: precision {:.4} recall {:.4} f-score {:.4} (tau {})",
+        report.precision, report.recall, report.fscore, setup.tau
+    ));
+    let mut v = serde_json::to_value(&report)?;
+    v["scene"] = scene.into();
+    v["pred"] = shown(setup.pred_path, false).into();
+    v["trajectory_mapped"] = data.mapped.into();
+    if let Some(d) = &setup.out_dir {
+        v["out_dir"] = d.display().to_string().into();
+    }
+    args.common.emit_json(&v)
+}
+
+/// The files and settings of a TnT evaluation, resolved from the flags.
+struct TntSetup<'a> {
+    /// The reconstruction (the argument or `--ply-path`).
+    pred_path: &'a Path,
+    /// The scene's ground-truth folder.
+    gt_dir: &'a Path,
+    /// The scene name its files use ([`tnt_file_stem`]).
+    scene: String,
+    /// The reconstruction's trajectory (`.log`).
+    traj: &'a Path,
+    /// τ, ground-truth units (metres).
+    tau: f64,
+    /// The toolbox's output folder (`--out-dir`, or `evaluation/` beside a
+    /// `--ply-path`) and its staging.
+    out_dir: Option<PathBuf>,
+    toolbox_out: Option<StagedDir>,
+    /// `--vis-dir`, staged.
+    vis: Option<StagedDir>,
+}
+
+impl TntSetup<'_> {
+    /// The ground-truth file `<scene><suffix>`.
+    fn file(&self, suffix: &str) -> PathBuf {
+        self.gt_dir.join(format!("{}{suffix}", self.scene))
+    }
+}
+
+/// Resolves the TnT flags: the reconstruction, the ground-truth folder,
+/// the scene, the trajectory and τ (usage errors, exit 2, for what is
+/// missing or given twice); checks `--plot`, stages `--vis-dir` and the
+/// toolbox's folder, and checks that the ground-truth files exist.
+fn tnt_setup(args: &ChamferArgs) -> anyhow::Result<TntSetup<'_>> {
+    let (pred_path, gt_dir) = tnt_paths(args)?;
+    let scene = tnt_scene(args, gt_dir)?;
+    let traj = args
+        .traj
+        .as_ref()
+        .ok_or_else(|| usage("--protocol tnt needs --traj-path RECONSTRUCTION.log"))?;
+    let tau = match args.tau.as_slice() {
+        [] => tnt_threshold(&scene)
+            .with_context(|| format!("no published threshold for scene '{scene}': give --tau"))?,
+        [t] if *t > 0.0 && t.is_finite() => *t,
+        _ => return Err(usage("--protocol tnt takes one positive --tau")),
     };
+    if let Some(plot) = &args.plot {
+        check_output_file(plot, "--plot")?;
+    }
+    if args.vis_dir.is_some() && args.vis_dir == args.out_dir {
+        return Err(usage("--vis-dir and --out-dir must be different folders"));
+    }
+    let vis = args.vis_dir.as_deref().map(StagedDir::new).transpose()?;
+    // The toolbox's outputs: --out-dir, or evaluation/ beside a --ply-path.
+    let out_dir = args.out_dir.clone().or_else(|| {
+        args.ply_path.as_ref().map(|p| {
+            p.parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(Path::new("."))
+                .join("evaluation")
+        })
+    });
+    let toolbox_out = out_dir.as_deref().map(StagedDir::new).transpose()?;
+    let setup = TntSetup {
+        pred_path,
+        gt_dir,
+        scene,
+        traj,
+        tau,
+        out_dir,
+        toolbox_out,
+        vis,
+    };
+    let missing: Vec<String> = [".ply", ".json", "_trans.txt", "_COLMAP_SfM.log"]
+        .iter()
+        .map(|s| setup.file(s))
+        .filter(|p| !p.exists())
+        .map(|p| p.display().to_string())
+        .collect();
+    if !missing.is_empty() {
+        bail!(
+            "missing Tanks-and-Temples ground truth: {}",
+            missing.join(", ")
+        );
+    }
+    Ok(setup)
+}
+
+/// The reconstruction (the argument or `--ply-path`) and the ground-truth
+/// folder (`--gt-dir` or `--dataset-dir`): usage errors when either is
+/// missing or given twice.
+fn tnt_paths(args: &ChamferArgs) -> anyhow::Result<(&Path, &Path)> {
     let pred_path = match (args.inputs.as_slice(), &args.ply_path) {
         ([p], None) | ([], Some(p)) => p,
         ([_], Some(_)) => {
@@ -576,9 +691,15 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
             ));
         }
     };
-    // The scene: --scene, else the folder's name as the toolbox takes it.
+    Ok((pred_path, gt_dir))
+}
+
+/// The scene name the ground-truth files use: `--scene`, else the
+/// folder's name as the toolbox takes it, spelled as the files in
+/// `gt_dir` are ([`tnt_file_stem`]).
+fn tnt_scene(args: &ChamferArgs, gt_dir: &Path) -> anyhow::Result<String> {
     let folder_name = std::fs::canonicalize(gt_dir)
-        .unwrap_or_else(|_| gt_dir.clone())
+        .unwrap_or_else(|_| gt_dir.to_path_buf())
         .file_name()
         .map(|n| n.to_string_lossy().into_owned());
     let given = match (&args.scene, &folder_name) {
@@ -586,109 +707,113 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
         (None, Some(n)) => n.clone(),
         (None, None) => return Err(usage("give --scene NAME (Barn, Caterpillar, ...)")),
     };
-    let scene = tnt_file_stem(gt_dir, &given);
-    let scene = scene.as_str();
-    let traj = args
-        .traj
-        .as_ref()
-        .ok_or_else(|| usage("--protocol tnt needs --traj-path RECONSTRUCTION.log"))?;
-    let tau = match args.tau.as_slice() {
-        [] => tnt_threshold(scene)
-            .with_context(|| format!("no published threshold for scene '{scene}': give --tau"))?,
-        [t] if *t > 0.0 && t.is_finite() => *t,
-        _ => return Err(usage("--protocol tnt takes one positive --tau")),
-    };
-    if let Some(plot) = &args.plot {
-        check_output_file(plot, "--plot")?;
+    Ok(tnt_file_stem(gt_dir, &given))
+}
+
+/// What a TnT evaluation reads: the reconstruction's points and
+/// trajectory (reduced to the reference frames when `mapped`), and the
+/// ground truth's points, trajectory, transform and crop volume.
+struct TntData {
+    rec_points: Vec<[f64; 3]>,
+    gt_points: Vec<[f64; 3]>,
+    rec_traj: Vec<DMat4>,
+    gt_traj: Vec<DMat4>,
+    trans: DMat4,
+    crop: CropVolume,
+    mapped: bool,
+}
+
+impl TntData {
+    /// The data as [`evaluate_tnt`] takes it.
+    fn input(&self) -> TntInput<'_> {
+        TntInput {
+            rec_points: &self.rec_points,
+            rec_traj: &self.rec_traj,
+            gt_traj: &self.gt_traj,
+            gt_trans: &self.trans,
+            crop: &self.crop,
+            gt_points: &self.gt_points,
+        }
     }
-    if args.vis_dir.is_some() && args.vis_dir == args.out_dir {
-        return Err(usage("--vis-dir and --out-dir must be different folders"));
-    }
-    let vis = args.vis_dir.as_deref().map(StagedDir::new).transpose()?;
-    // The toolbox's outputs: --out-dir, or evaluation/ beside a --ply-path.
-    let out_dir = args.out_dir.clone().or_else(|| {
-        args.ply_path.as_ref().map(|p| {
-            p.parent()
-                .filter(|d| !d.as_os_str().is_empty())
-                .unwrap_or(Path::new("."))
-                .join("evaluation")
-        })
-    });
-    let toolbox_out = out_dir.as_deref().map(StagedDir::new).transpose()?;
-    let file = |suffix: &str| gt_dir.join(format!("{scene}{suffix}"));
-    let missing: Vec<String> = [".ply", ".json", "_trans.txt", "_COLMAP_SfM.log"]
-        .iter()
-        .map(|s| file(s))
-        .filter(|p| !p.exists())
-        .map(|p| p.display().to_string())
-        .collect();
-    if !missing.is_empty() {
-        bail!(
-            "missing Tanks-and-Temples ground truth: {}",
-            missing.join(", ")
-        );
-    }
+}
+
+/// Reads the reconstruction (vertices, plus face centroids with
+/// `--with-centroids`), the ground-truth points, both trajectories (a
+/// full-video log reduced by the scene's mapping), the transform and the
+/// crop volume.
+fn load_tnt(args: &ChamferArgs, s: &TntSetup) -> anyhow::Result<TntData> {
     // The official toolbox reads a mesh PLY's vertices (`read_point_cloud`);
     // 2DGS's script adds the face centroids (`--with-centroids`).
     let rec_points = if args.with_centroids {
-        let m = load_mesh(pred_path, "chamfer").map_err(|e| e.in_role("prediction"))?;
+        let m = load_mesh(s.pred_path, "chamfer").map_err(|e| e.in_role("prediction"))?;
         vertices_and_face_centroids(&f64_points(&m.vertices), &m.faces)?
     } else {
         load_cloud(
-            pred_path,
+            s.pred_path,
             &GenericParams::vertices(),
             "prediction",
             args.max_samples.unwrap_or_else(default_max_samples),
         )?
         .points
     };
-    let gt = load_points(&file(".ply"), "chamfer").map_err(|e| e.in_role("ground truth"))?;
+    let gt = load_points(&s.file(".ply"), "chamfer").map_err(|e| e.in_role("ground truth"))?;
     let gt_points = f64_points(&gt.positions);
-    let mut rec_traj: Vec<_> = crate::io::tnt::read_log(traj)?
+    let mut rec_traj: Vec<_> = crate::io::tnt::read_log(s.traj)?
         .iter()
         .map(|f| f.pose)
         .collect();
     // A full-video log: the reference frames, by the scene's mapping (the
     // toolbox's rule: more than 1600 frames and a mapping file present).
-    let mapping = file("_mapping_reference.txt");
+    let mapping = s.file("_mapping_reference.txt");
     let mut mapped = false;
     if rec_traj.len() > 1600 && mapping.is_file() {
         let m = crate::io::tnt::read_mapping(&mapping)?;
         rec_traj = m.sparse(&mapping.display().to_string(), &rec_traj)?;
         mapped = true;
     }
-    let gt_traj: Vec<_> = crate::io::tnt::read_log(&file("_COLMAP_SfM.log"))?
+    let gt_traj: Vec<_> = crate::io::tnt::read_log(&s.file("_COLMAP_SfM.log"))?
         .iter()
         .map(|f| f.pose)
         .collect();
-    let trans = crate::io::tnt::read_trans(&file("_trans.txt"))?;
-    let crop = crate::io::tnt::read_crop_json(&file(".json"))?;
-    let mut params = TntParams::default();
-    params.ransac.seed = args.seed;
-    let report = evaluate_tnt(
-        &rec_points,
-        &rec_traj,
-        &gt_traj,
-        &trans,
-        &crop,
-        &gt_points,
-        tau,
-        &params,
-    )?;
+    let trans = crate::io::tnt::read_trans(&s.file("_trans.txt"))?;
+    let crop = crate::io::tnt::read_crop_json(&s.file(".json"))?;
+    Ok(TntData {
+        rec_points,
+        gt_points,
+        rec_traj,
+        gt_traj,
+        trans,
+        crop,
+        mapped,
+    })
+}
+
+/// Writes `--plot`, then into each staged folder (`vis`, then the
+/// toolbox's) the precision and recall point clouds coloured by distance
+/// (the toolbox's folder also gets [`write_toolbox_files`]), committing
+/// each folder when it is complete.
+fn write_tnt_outputs(
+    args: &ChamferArgs,
+    vis: Option<StagedDir>,
+    toolbox_out: Option<StagedDir>,
+    report: &TntReport,
+    scene: &str,
+) -> anyhow::Result<()> {
     if let Some(plot) = &args.plot {
-        let img = plot_pr_curves(&report);
+        let img = plot_pr_curves(report);
         let name = plot.display().to_string();
         crate::io::write_output(plot, |w| {
             crate::io::image::write_png8(w, &name, img.width, img.height, 3, &img.rgb)
         })?;
     }
+    let has_toolbox = toolbox_out.is_some();
     let mut dirs = Vec::new();
     dirs.extend(vis);
     dirs.extend(toolbox_out);
     let n_dirs = dirs.len();
     for (k, st) in dirs.into_iter().enumerate() {
         let dir = st.path();
-        let toolbox = out_dir.is_some() && k + 1 == n_dirs;
+        let toolbox = has_toolbox && k + 1 == n_dirs;
         for (what, pts, d) in [
             (
                 "precision",
@@ -704,7 +829,7 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
             let pc = PointCloud {
                 positions: pts.iter().map(|q| q.map(|c| c as f32)).collect(),
                 normals: None,
-                colors: Some(d.iter().map(|&x| hot_r(x, tau)).collect()),
+                colors: Some(d.iter().map(|&x| hot_r(x, report.tau)).collect()),
                 extras: Default::default(),
             };
             crate::io::write_output(&dir.join(format!("{scene}.{what}.ply")), |w| {
@@ -712,22 +837,11 @@ fn run_tnt(args: &ChamferArgs) -> anyhow::Result<()> {
             })?;
         }
         if toolbox {
-            write_toolbox_files(dir, scene, &report)?;
+            write_toolbox_files(dir, scene, report)?;
         }
         st.commit()?;
     }
-    args.common.say(format!(
-        "tnt {scene}: precision {:.4} recall {:.4} f-score {:.4} (tau {tau})",
-        report.precision, report.recall, report.fscore
-    ));
-    let mut v = serde_json::to_value(&report)?;
-    v["scene"] = scene.into();
-    v["pred"] = shown(pred_path, false).into();
-    v["trajectory_mapped"] = mapped.into();
-    if let Some(d) = &out_dir {
-        v["out_dir"] = d.display().to_string().into();
-    }
-    args.common.emit_json(&v)
+    Ok(())
 }
 
 /// The scene name the ground-truth files in `dir` use: `given` when

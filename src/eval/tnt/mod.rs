@@ -197,13 +197,29 @@ pub fn vertices_and_face_centroids(
     Ok(out)
 }
 
+/// The data of one Tanks-and-Temples evaluation: the reconstruction, the
+/// two trajectories and the scene's ground truth. Units are those of each
+/// file (the ground truth's: metres for TnT); poses are camera-to-world.
+#[derive(Clone, Copy, Debug)]
+pub struct TntInput<'a> {
+    /// The reconstruction's points, in its own frame.
+    pub rec_points: &'a [[f64; 3]],
+    /// The reconstruction's camera-to-world poses.
+    pub rec_traj: &'a [DMat4],
+    /// The reference COLMAP poses, frame i corresponding to `rec_traj[i]`.
+    pub gt_traj: &'a [DMat4],
+    /// `_trans.txt`: reference COLMAP frame → GT frame.
+    pub gt_trans: &'a DMat4,
+    /// The scene's crop volume (GT frame).
+    pub crop: &'a CropVolume,
+    /// The ground-truth points (GT frame).
+    pub gt_points: &'a [[f64; 3]],
+}
+
 /// Runs the Tanks-and-Temples evaluation of a reconstruction.
 ///
-/// Inputs: `rec_points` (reconstruction, its own frame), `rec_traj` (its
-/// camera-to-world poses), `gt_traj` (the reference COLMAP poses, frame i
-/// corresponding to `rec_traj[i]`), `gt_trans` (`_trans.txt`: reference
-/// COLMAP frame → GT frame), `crop`, `gt_points` (GT frame) and `tau` (τ, GT
-/// units).
+/// Inputs: `input` ([`TntInput`]: the reconstruction, both trajectories,
+/// the GT transform, crop volume and points) and `tau` (τ, GT units).
 ///
 /// Steps, as the toolbox's `run.py`:
 /// 1. **Alignment**: RANSAC ([`ransac_on_correspondences`], Open3D 0.10
@@ -229,17 +245,15 @@ pub fn vertices_and_face_centroids(
 /// full-video log is reduced by the caller with the scene's frame mapping,
 /// [`crate::io::tnt::FrameMapping::sparse`]); fewer frames
 /// than the RANSAC sample size; non-finite points.
-#[allow(clippy::too_many_arguments)]
-pub fn evaluate_tnt(
-    rec_points: &[[f64; 3]],
-    rec_traj: &[DMat4],
-    gt_traj: &[DMat4],
-    gt_trans: &DMat4,
-    crop: &CropVolume,
-    gt_points: &[[f64; 3]],
-    tau: f64,
-    params: &TntParams,
-) -> Result<TntReport> {
+pub fn evaluate_tnt(input: &TntInput, tau: f64, params: &TntParams) -> Result<TntReport> {
+    let TntInput {
+        rec_points,
+        rec_traj,
+        gt_traj,
+        gt_trans,
+        crop,
+        gt_points,
+    } = *input;
     if !(tau.is_finite() && tau > 0.0) {
         return Err(Error::invalid(format!(
             "threshold τ must be finite and > 0, got {tau}"
@@ -605,12 +619,14 @@ mod tests {
         let su = setup();
         let rec: Vec<[f64; 3]> = transform_points(&su.s.matrix(), &su.gt_points);
         let rep = evaluate_tnt(
-            &rec,
-            &su.rec_traj,
-            &su.gt_traj,
-            &su.gt_trans,
-            &crop(),
-            &su.gt_points,
+            &TntInput {
+                rec_points: &rec,
+                rec_traj: &su.rec_traj,
+                gt_traj: &su.gt_traj,
+                gt_trans: &su.gt_trans,
+                crop: &crop(),
+                gt_points: &su.gt_points,
+            },
             TAU,
             &TntParams::default(),
         )
@@ -649,12 +665,14 @@ mod tests {
         rec_gt_frame.extend(&d);
         let rec = transform_points(&su.s.matrix(), &rec_gt_frame);
         let rep = evaluate_tnt(
-            &rec,
-            &su.rec_traj,
-            &su.gt_traj,
-            &su.gt_trans,
-            &crop(),
-            &su.gt_points,
+            &TntInput {
+                rec_points: &rec,
+                rec_traj: &su.rec_traj,
+                gt_traj: &su.gt_traj,
+                gt_trans: &su.gt_trans,
+                crop: &crop(),
+                gt_points: &su.gt_points,
+            },
             TAU,
             &TntParams::default(),
         )
@@ -710,12 +728,14 @@ mod tests {
             ..Default::default()
         };
         let rep = evaluate_tnt(
-            &rec,
-            &su.rec_traj,
-            &su.gt_traj,
-            &su.gt_trans,
-            &nothing,
-            &su.gt_points,
+            &TntInput {
+                rec_points: &rec,
+                rec_traj: &su.rec_traj,
+                gt_traj: &su.gt_traj,
+                gt_trans: &su.gt_trans,
+                crop: &nothing,
+                gt_points: &su.gt_points,
+            },
             TAU,
             &params,
         )
@@ -727,12 +747,14 @@ mod tests {
         );
         let run = |tau: f64, rec_traj: &[DMat4]| {
             evaluate_tnt(
-                &rec,
-                rec_traj,
-                &su.gt_traj,
-                &su.gt_trans,
-                &crop(),
-                &su.gt_points,
+                &TntInput {
+                    rec_points: &rec,
+                    rec_traj,
+                    gt_traj: &su.gt_traj,
+                    gt_trans: &su.gt_trans,
+                    crop: &crop(),
+                    gt_points: &su.gt_points,
+                },
                 tau,
                 &params,
             )
