@@ -3,14 +3,14 @@
 //! the binding and the mesh (docs/bind-gaussians.md, docs/formats.md); and
 //! rebinding such a file to an edited copy of its mesh.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
 use crate::cli::{Common, positive_f64, shown, usage};
-use crate::geom::binding::colors::{dc_from_gaussians, rgb_from_views};
+use crate::geom::binding::colors::{dc_from_gaussians, dc_from_views};
 use crate::geom::binding::rebind::{ScaleRule, rebind};
 use crate::geom::binding::{
     BindOptions, THICKNESS_FACTOR, bind, materialize, mean_of, mesh_radius,
@@ -21,7 +21,7 @@ use crate::io::any::{
 use crate::io::cameras::read_cameras;
 use crate::io::ply::bound::{attach, is_bound};
 use crate::io::views::{ViewOptions, load_views};
-use crate::model::{BoundGaussians, Scene};
+use crate::model::{BoundGaussians, Mesh, Scene};
 
 /// How in-plane scales follow an edit (`--scale-rule`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -100,7 +100,9 @@ pub fn save_bound(path: &std::path::Path, b: &BoundGaussians) -> crate::Result<(
 /// (`io::dataset::check_views_budget`).
 const BIND_BYTES_PER_PIXEL: u64 = 32;
 
-/// `bind-gaussians` entry point.
+/// `bind-gaussians` entry point: checks the flags, binds a mesh
+/// ([`bind_mesh`]) or rebinds a bound file ([`rebind_file`]), writes the
+/// bound PLY and reports.
 pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
     args.common.init()?;
     args.common.check_output(&args.output, true)?;
@@ -119,137 +121,8 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
     }
     let t0 = std::time::Instant::now();
     let (b, report) = match &args.rebind {
-        Some(edited) => {
-            let (b, _) = load_bound(&args.input, "bind-gaussians --rebind")?;
-            let mesh = load_mesh_finite(edited, "bind-gaussians --rebind")?;
-            let rule = match args.scale_rule {
-                ScaleRuleArg::MeanSide => ScaleRule::MeanSide,
-                ScaleRuleArg::Anisotropic => ScaleRule::Anisotropic,
-            };
-            let out = rebind(&b, &mesh, rule)
-                .map_err(|m| anyhow::anyhow!("{}: {m}", shown(edited, false)))?;
-            let moved = b
-                .mesh
-                .vertices
-                .iter()
-                .zip(&mesh.vertices)
-                .filter(|(a, b)| a != b)
-                .count();
-            (
-                out,
-                json!({"mode": "rebind", "edited_mesh": shown(edited, false),
-                       "scale_rule": args.scale_rule.to_possible_value().map(|v| v.get_name().to_string()), "moved_vertices": moved}),
-            )
-        }
-        None => {
-            let scene = load(&args.input)?;
-            let mesh = match scene {
-                Scene::Mesh(m) => m,
-                Scene::Gaussians(g) if is_bound(&g) => {
-                    return Err(usage(format!(
-                        "{} already holds bound Gaussians: give --rebind EDITED_MESH to rebind \
-                         them, or bind a mesh",
-                        shown(&args.input, false)
-                    )));
-                }
-                other => anyhow::bail!(
-                    "{}: bind-gaussians takes a mesh, but the file holds {}",
-                    shown(&args.input, false),
-                    other.kind().phrase()
-                ),
-            };
-            // before the thickness is derived from the mesh's extent
-            check_finite_mesh(&shown(&args.input, false), &mesh)?;
-            let (thickness, thickness_from) = match (args.thickness, &args.cameras) {
-                (Some(t), _) => (t, "--thickness".to_string()),
-                (None, Some(c)) => {
-                    let cams = read_cameras(c)?;
-                    let centres: Vec<[f64; 3]> =
-                        cams.iter().map(|c| c.center().to_array()).collect();
-                    let e = crate::model::rig::nerfpp_radius(&centres).with_context(|| {
-                        format!(
-                            "{}: the cameras share one centre, so they give no extent; give \
-                             --thickness",
-                            shown(c, false)
-                        )
-                    })?;
-                    (e * THICKNESS_FACTOR, format!("1e-6 × camera extent {e:.6}"))
-                }
-                (None, None) => {
-                    let r = mesh_radius(&mesh);
-                    if !(r > 0.0 && r.is_finite()) {
-                        anyhow::bail!(
-                            "{}: the mesh has no extent to derive a thickness from; give --thickness",
-                            shown(&args.input, false)
-                        );
-                    }
-                    (
-                        r * THICKNESS_FACTOR,
-                        format!("1e-6 × mesh bounding radius {r:.6}"),
-                    )
-                }
-            };
-            let opts = BindOptions {
-                per_face: args.per_triangle,
-                thickness: thickness as f32,
-                sh_degree: args.sh_degree as usize,
-            };
-            let mut b = bind(&mesh, &opts, None)
-                .map_err(|m| anyhow::anyhow!("{}: {m}", shown(&args.input, false)))?;
-            let mut colors = if mesh.vertex_colors.is_some() {
-                "mesh vertex colours"
-            } else {
-                "grey (the mesh has no vertex colours)"
-            };
-            if let Some(src) = &args.colors_from {
-                let g = load_gaussians_finite(src, "bind-gaussians --colors-from")?;
-                let at: Vec<[f64; 3]> = (0..b.len()).map(|i| mean_of(&b, i)).collect();
-                b.sh_dc = dc_from_gaussians(&at, &g)
-                    .with_context(|| format!("colours from {}", shown(src, false)))?;
-                colors = "highest-weight source Gaussian";
-            }
-            if let (Some(dir), Some(cams_path)) = (&args.images, &args.cameras) {
-                let mut cams = read_cameras(cams_path)?;
-                cams.sort_by(|a, b| a.name.cmp(&b.name));
-                // every photo is held at once: checked before any is decoded
-                crate::io::dataset::check_views_budget(
-                    cams_path,
-                    &cams,
-                    args.downscale,
-                    BIND_BYTES_PER_PIXEL,
-                )?;
-                let views = load_views(
-                    &cams,
-                    dir,
-                    &ViewOptions {
-                        downscale: args.downscale,
-                        masks: None,
-                        background: None,
-                    },
-                )?;
-                let fallback: Vec<[f32; 3]> = b
-                    .sh_dc
-                    .iter()
-                    .map(|d| d.map(splatkit_render::sh::sh_to_rgb))
-                    .collect();
-                let (rgb, seen) = rgb_from_views(&b, &views, &fallback);
-                b.sh_dc = rgb
-                    .iter()
-                    .map(|c| c.map(splatkit_render::sh::rgb_to_sh))
-                    .collect();
-                let unseen = seen.iter().filter(|&&s| s == 0).count();
-                colors = if unseen == 0 {
-                    "photos (every Gaussian seen)"
-                } else {
-                    "photos (unseen Gaussians keep the mesh colour)"
-                };
-            }
-            (
-                b,
-                json!({"mode": "bind", "thickness": thickness, "thickness_from": thickness_from,
-                       "colors": colors}),
-            )
-        }
+        Some(edited) => rebind_file(&args, edited)?,
+        None => bind_mesh(&args)?,
     };
     save_bound(&args.output, &b)?;
     args.common.say(format!(
@@ -271,4 +144,157 @@ pub fn run(args: BindGaussiansArgs) -> anyhow::Result<()> {
         "report": report,
     }))?;
     Ok(())
+}
+
+/// `--rebind`: the bound Gaussians of the input moved onto the `edited`
+/// mesh ([`rebind`] with `--scale-rule`), and the report's `report` entry.
+fn rebind_file(
+    args: &BindGaussiansArgs,
+    edited: &Path,
+) -> anyhow::Result<(BoundGaussians, serde_json::Value)> {
+    let (b, _) = load_bound(&args.input, "bind-gaussians --rebind")?;
+    let mesh = load_mesh_finite(edited, "bind-gaussians --rebind")?;
+    let rule = match args.scale_rule {
+        ScaleRuleArg::MeanSide => ScaleRule::MeanSide,
+        ScaleRuleArg::Anisotropic => ScaleRule::Anisotropic,
+    };
+    let out =
+        rebind(&b, &mesh, rule).map_err(|m| anyhow::anyhow!("{}: {m}", shown(edited, false)))?;
+    let moved = b
+        .mesh
+        .vertices
+        .iter()
+        .zip(&mesh.vertices)
+        .filter(|(a, b)| a != b)
+        .count();
+    Ok((
+        out,
+        json!({"mode": "rebind", "edited_mesh": shown(edited, false),
+               "scale_rule": args.scale_rule.to_possible_value().map(|v| v.get_name().to_string()), "moved_vertices": moved}),
+    ))
+}
+
+/// Binds Gaussians to the input mesh ([`bind`]: `--per-triangle`, the
+/// thickness of [`thickness`], `--sh-degree`), coloured from the mesh,
+/// then from `--colors-from`, then from `--images`; and the report's
+/// `report` entry.
+fn bind_mesh(args: &BindGaussiansArgs) -> anyhow::Result<(BoundGaussians, serde_json::Value)> {
+    let mesh = load_mesh_to_bind(args)?;
+    let (thickness, thickness_from) = thickness(args, &mesh)?;
+    let opts = BindOptions {
+        per_face: args.per_triangle,
+        thickness: thickness as f32,
+        sh_degree: args.sh_degree as usize,
+    };
+    let mut b = bind(&mesh, &opts, None)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", shown(&args.input, false)))?;
+    let mut colors = if mesh.vertex_colors.is_some() {
+        "mesh vertex colours"
+    } else {
+        "grey (the mesh has no vertex colours)"
+    };
+    if let Some(src) = &args.colors_from {
+        let g = load_gaussians_finite(src, "bind-gaussians --colors-from")?;
+        let at: Vec<[f64; 3]> = (0..b.len()).map(|i| mean_of(&b, i)).collect();
+        b.sh_dc = dc_from_gaussians(&at, &g)
+            .with_context(|| format!("colours from {}", shown(src, false)))?;
+        colors = "highest-weight source Gaussian";
+    }
+    if let (Some(dir), Some(cams_path)) = (&args.images, &args.cameras) {
+        colors = colour_from_photos(args, &mut b, dir, cams_path)?;
+    }
+    Ok((
+        b,
+        json!({"mode": "bind", "thickness": thickness, "thickness_from": thickness_from,
+               "colors": colors}),
+    ))
+}
+
+/// The input's mesh, with finite values: an error for any other scene (a
+/// usage error for bound Gaussians, which `--rebind` takes).
+fn load_mesh_to_bind(args: &BindGaussiansArgs) -> anyhow::Result<Mesh> {
+    let scene = load(&args.input)?;
+    let mesh = match scene {
+        Scene::Mesh(m) => m,
+        Scene::Gaussians(g) if is_bound(&g) => {
+            return Err(usage(format!(
+                "{} already holds bound Gaussians: give --rebind EDITED_MESH to rebind \
+                 them, or bind a mesh",
+                shown(&args.input, false)
+            )));
+        }
+        other => anyhow::bail!(
+            "{}: bind-gaussians takes a mesh, but the file holds {}",
+            shown(&args.input, false),
+            other.kind().phrase()
+        ),
+    };
+    // before the thickness is derived from the mesh's extent
+    check_finite_mesh(&shown(&args.input, false), &mesh)?;
+    Ok(mesh)
+}
+
+/// The thickness (world units) and where it came from: `--thickness`,
+/// else 1e-6 × the extent of `--cameras`, else 1e-6 × the mesh's
+/// bounding radius.
+fn thickness(args: &BindGaussiansArgs, mesh: &Mesh) -> anyhow::Result<(f64, String)> {
+    Ok(match (args.thickness, &args.cameras) {
+        (Some(t), _) => (t, "--thickness".to_string()),
+        (None, Some(c)) => {
+            let cams = read_cameras(c)?;
+            let centres: Vec<[f64; 3]> = cams.iter().map(|c| c.center().to_array()).collect();
+            let e = crate::model::rig::nerfpp_radius(&centres).with_context(|| {
+                format!(
+                    "{}: the cameras share one centre, so they give no extent; give \
+                     --thickness",
+                    shown(c, false)
+                )
+            })?;
+            (e * THICKNESS_FACTOR, format!("1e-6 × camera extent {e:.6}"))
+        }
+        (None, None) => {
+            let r = mesh_radius(mesh);
+            if !(r > 0.0 && r.is_finite()) {
+                anyhow::bail!(
+                    "{}: the mesh has no extent to derive a thickness from; give --thickness",
+                    shown(&args.input, false)
+                );
+            }
+            (
+                r * THICKNESS_FACTOR,
+                format!("1e-6 × mesh bounding radius {r:.6}"),
+            )
+        }
+    })
+}
+
+/// Recolours `b` from the photos in `dir` of the cameras at `cams_path`
+/// (name-sorted, downscaled by `--downscale`; [`dc_from_views`]); returns
+/// the report's `colors` entry.
+fn colour_from_photos(
+    args: &BindGaussiansArgs,
+    b: &mut BoundGaussians,
+    dir: &Path,
+    cams_path: &Path,
+) -> anyhow::Result<&'static str> {
+    let mut cams = read_cameras(cams_path)?;
+    cams.sort_by(|a, b| a.name.cmp(&b.name));
+    // every photo is held at once: checked before any is decoded
+    crate::io::dataset::check_views_budget(cams_path, &cams, args.downscale, BIND_BYTES_PER_PIXEL)?;
+    let views = load_views(
+        &cams,
+        dir,
+        &ViewOptions {
+            downscale: args.downscale,
+            masks: None,
+            background: None,
+        },
+    )?;
+    let (dc, unseen) = dc_from_views(b, &views);
+    b.sh_dc = dc;
+    Ok(if unseen == 0 {
+        "photos (every Gaussian seen)"
+    } else {
+        "photos (unseen Gaussians keep the mesh colour)"
+    })
 }

@@ -42,6 +42,27 @@ pub fn dc_from_gaussians(at: &[[f64; 3]], src: &Gaussians) -> Result<Vec<[f32; 3
         .collect())
 }
 
+/// The SH DC coefficients of `b` recoloured from the photos of `views`
+/// ([`rgb_from_views`]; a Gaussian no view sees keeps the colour of its
+/// current DC), and how many Gaussians no view saw.
+pub fn dc_from_views(
+    b: &crate::model::BoundGaussians,
+    views: &[crate::model::View],
+) -> (Vec<[f32; 3]>, usize) {
+    let fallback: Vec<[f32; 3]> = b
+        .sh_dc
+        .iter()
+        .map(|d| d.map(splatkit_render::sh::sh_to_rgb))
+        .collect();
+    let (rgb, seen) = rgb_from_views(b, views, &fallback);
+    let dc = rgb
+        .iter()
+        .map(|c| c.map(splatkit_render::sh::rgb_to_sh))
+        .collect();
+    let unseen = seen.iter().filter(|&&s| s == 0).count();
+    (dc, unseen)
+}
+
 /// For each bound Gaussian, the mean colour of the photos at the pixel its
 /// mean projects to, over the views where it is visible: its face is the
 /// one the mesh z-buffer (`splatkit_render::mesh`) sees at that pixel.
