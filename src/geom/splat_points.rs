@@ -14,6 +14,9 @@
 //!   without depth or on a depth edge (a neighbour missing) are skipped;
 //!   colour from a DC-only render; a seeded random subset of at most
 //!   ⌊max/N⌋ + 1 points per view.
+//!
+//! [`splat_to_points`] runs the method `splat2points` picks: one of these
+//! or SuGaR's level-set sampling ([`crate::geom::levelset`]).
 
 use rand::RngExt;
 use rayon::prelude::*;
@@ -21,10 +24,46 @@ use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 use splatkit_render::sh::sh_to_rgb;
 
 use crate::geom::diamond_zbuffer::diamond_zbuffer;
-use crate::geom::levelset::{LevelPoints, opaque_dc_subset};
+use crate::geom::levelset::{LevelPoints, LevelsetOptions, opaque_dc_subset, sample_levelset};
 use crate::model::Camera;
 use crate::model::rig::back_project;
 use crate::model::rng;
+
+/// How [`splat_to_points`] makes points; `near` is the near plane of the
+/// renders (camera z, scene units).
+#[derive(Clone, Debug)]
+pub enum PointMethod {
+    /// SuGaR's level-set sampling ([`sample_levelset`]) with these options.
+    Levelset(LevelsetOptions),
+    /// [`centers`] of the Gaussians with opacity above `min_opacity`.
+    Centers { min_opacity: f32, near: f64 },
+    /// [`depth_points`]: at most about `max_points`, chosen with `seed`.
+    Depth {
+        max_points: usize,
+        seed: u64,
+        near: f64,
+    },
+}
+
+/// Oriented, coloured points of `g` seen from `cams` by `method`;
+/// `progress(i)` is called after each view the level-set and depth
+/// methods sample. Errors only from the level-set sampling (no camera).
+pub fn splat_to_points(
+    g: &Gaussians3,
+    cams: &[Camera],
+    method: &PointMethod,
+    progress: impl FnMut(usize),
+) -> crate::Result<LevelPoints> {
+    Ok(match method {
+        PointMethod::Levelset(opts) => sample_levelset(g, cams, opts, progress)?,
+        PointMethod::Centers { min_opacity, near } => centers(g, cams, *min_opacity, *near),
+        PointMethod::Depth {
+            max_points,
+            seed,
+            near,
+        } => depth_points(g, cams, *max_points, *seed, *near, progress),
+    })
+}
 
 fn dc_only(g: &Gaussians3) -> Gaussians3 {
     let nc = (g.sh_degree + 1) * (g.sh_degree + 1);

@@ -10,13 +10,13 @@ use serde_json::json;
 
 use crate::cli::orbit::{OrbitArgs, SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, fraction_f32, nonneg_f64, shown, usage};
-use crate::geom::levelset::{DepthSource, LevelsetOptions, sample_levelset, to_point_cloud};
+use crate::geom::levelset::{DepthSource, LevelsetOptions, to_point_cloud};
 use crate::geom::orbit::orbit_rings;
-use crate::geom::splat_points::{centers, depth_points};
+use crate::geom::splat_points::{PointMethod, splat_to_points};
 use crate::io::any::{load_gaussians, save_points};
 use crate::io::cameras::read_cameras;
 use crate::io::ply::Format;
-use crate::model::Camera;
+use crate::model::{Camera, OrbitSpec};
 use splatkit_render::gaussian::Gaussians3;
 
 /// How points are made.
@@ -232,11 +232,57 @@ pub fn splat2points_image_bytes(cams: &[Camera]) -> u64 {
     image_bytes(cams, SPLAT2POINTS_BYTES_PER_PIXEL, 0)
 }
 
-/// `splat2points` entry point.
+/// `splat2points` entry point: resolves the scene and its cameras, checks
+/// that some camera sees an opaque Gaussian, makes the points
+/// ([`splat_to_points`]), writes them and reports.
 pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     args.common.init()?;
     args.common.check_output(&args.output, true)?;
     let t0 = std::time::Instant::now();
+    let (scene, cam_path, orbit) = resolve_inputs(&args)?;
+    let g = load_gaussians(&scene, "splat2points")
+        .with_context(|| format!("reading {}", shown(&scene, false)))?
+        .to_raster();
+    let views = sample_cameras(&args, &g, cam_path.as_deref(), orbit.as_ref())?;
+    check_seen(&args, &g, &views, &scene)?;
+    let pb = args.common.progress(views.cams.len() as u64, "views");
+    let method = match args.method {
+        Method::Levelset => PointMethod::Levelset(LevelsetOptions {
+            levels: args.level.clone(),
+            max_points: args.max_points,
+            min_opacity: args.min_opacity,
+            depth: args.depth.source(),
+            seed: args.seed,
+            near: args.near,
+            ..Default::default()
+        }),
+        Method::Centers => PointMethod::Centers {
+            min_opacity: args.min_opacity,
+            near: args.near,
+        },
+        Method::Depth => PointMethod::Depth {
+            max_points: args.max_points,
+            seed: args.seed,
+            near: args.near,
+        },
+    };
+    let points = splat_to_points(&g, &views.cams, &method, |_| pb.inc(1))?;
+    pb.finish_and_clear();
+    let n = points.positions.len();
+    if n == 0 {
+        return Err(no_points_error(&args, &scene, &views.source));
+    }
+    let pc = to_point_cloud(points, args.provenance);
+    save_points(&args.output, &pc, Format::BinaryLittleEndian)?;
+    report(&args, &scene, &g, &views, n, t0)
+}
+
+/// The scene's Gaussian PLY, the camera file (`--cameras`, else a model
+/// folder's `cameras.json`) and, without one, the `--orbit` (checked with
+/// its image buffers against the memory budget before the scene is read).
+fn resolve_inputs(
+    args: &Splat2PointsArgs,
+) -> anyhow::Result<(PathBuf, Option<PathBuf>, Option<OrbitSpec>)> {
     let (scene, default_cams) = if args.scene.is_dir() {
         let (p, c) = resolve_model_folder(&args.scene, args.iteration)?;
         (p, Some(c))
@@ -263,10 +309,30 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
                 .saturating_mul(SPLAT2POINTS_BYTES_PER_PIXEL),
         )?;
     }
-    let g = load_gaussians(&scene, "splat2points")
-        .with_context(|| format!("reading {}", shown(&scene, false)))?
-        .to_raster();
-    let (cams, n_all, cam_source) = match (&cam_path, args.orbit.orbit) {
+    Ok((scene, cam_path, orbit))
+}
+
+/// The cameras points are made from.
+struct Views {
+    /// The cameras sampled (the training views of a camera file).
+    cams: Vec<Camera>,
+    /// The cameras before the test views were held out.
+    n_all: usize,
+    /// Where they come from, for messages: the camera file, or the orbit.
+    source: String,
+}
+
+/// The cameras to sample from: the camera file's training views (test
+/// views held out unless `--all-views`), or the `orbit` around the
+/// Gaussians' centres; each a pinhole, a camera file's largest view within
+/// the memory budget.
+fn sample_cameras(
+    args: &Splat2PointsArgs,
+    g: &Gaussians3,
+    cam_path: Option<&Path>,
+    orbit: Option<&OrbitSpec>,
+) -> anyhow::Result<Views> {
+    let (cams, n_all, cam_source) = match (cam_path, args.orbit.orbit) {
         (Some(p), _) => {
             let all =
                 read_cameras(p).with_context(|| format!("reading cameras {}", p.display()))?;
@@ -282,7 +348,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
             (keep, n_all, p.display().to_string())
         }
         (None, Some(_)) => {
-            let spec = orbit.as_ref().expect("checked above");
+            let spec = orbit.expect("checked above");
             let cams = orbit_rings(&g.means, spec).with_context(|| {
                 format!(
                     "{}: no usable --orbit around this scene (check its coordinates, or give \
@@ -306,7 +372,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
         c.require_pinhole()
             .map_err(|e| anyhow::anyhow!("camera {:?}: {e}", c.name))?;
     }
-    if let Some(p) = &cam_path {
+    if let Some(p) = cam_path {
         check_image_budget(
             SizeFrom::File(p),
             &format!(
@@ -316,7 +382,22 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
             splat2points_image_bytes(&cams),
         )?;
     }
-    // nothing to sample from: say why before any work
+    Ok(Views {
+        cams,
+        n_all,
+        source: cam_source,
+    })
+}
+
+/// Nothing to sample from, said before any work: no Gaussian with opacity
+/// above `--min-opacity`, or none of them seen by a camera.
+fn check_seen(
+    args: &Splat2PointsArgs,
+    g: &Gaussians3,
+    views: &Views,
+    scene: &Path,
+) -> anyhow::Result<()> {
+    let (cams, cam_source) = (&views.cams, &views.source);
     let opaque = g
         .opacities
         .iter()
@@ -325,71 +406,65 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     if opaque == 0 {
         bail!(
             "{}: none of its {} Gaussians has opacity above --min-opacity {}: no points to make",
-            shown(&scene, false),
+            shown(scene, false),
             g.len(),
             args.min_opacity
         );
     }
-    if seen_by_any(&g, &cams, args.min_opacity, args.near) == 0 {
+    if seen_by_any(g, cams, args.min_opacity, args.near) == 0 {
         bail!(
             "none of the {} cameras ({cam_source}) sees any of the {opaque} opaque Gaussians \
              of {} (check that the cameras belong to this scene: axes, units, world up)",
             cams.len(),
-            shown(&scene, false)
+            shown(scene, false)
         );
     }
-    let pb = args.common.progress(cams.len() as u64, "views");
-    let points = match args.method {
-        Method::Levelset => {
-            let opts = LevelsetOptions {
-                levels: args.level.clone(),
-                max_points: args.max_points,
-                min_opacity: args.min_opacity,
-                depth: args.depth.source(),
-                seed: args.seed,
-                near: args.near,
-                ..Default::default()
-            };
-            sample_levelset(&g, &cams, &opts, |_| pb.inc(1))?
+    Ok(())
+}
+
+/// The error of a run that made no point, with the method's likely cause.
+fn no_points_error(args: &Splat2PointsArgs, scene: &Path, cam_source: &str) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{}: no points: {} (cameras {cam_source}); nothing written",
+        shown(scene, false),
+        match args.method {
+            Method::Levelset => format!(
+                "no ray crossed the level(s) --level {} (try a lower --level or --depth median)",
+                args.level
+                    .iter()
+                    .map(|l| l.to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            ),
+            Method::Centers => "no opaque Gaussian centre is seen by a camera".to_string(),
+            Method::Depth => "no view has a pixel with depth".to_string(),
         }
-        Method::Centers => centers(&g, &cams, args.min_opacity, args.near),
-        Method::Depth => depth_points(&g, &cams, args.max_points, args.seed, args.near, |_| {
-            pb.inc(1)
-        }),
-    };
-    pb.finish_and_clear();
-    let n = points.positions.len();
-    if n == 0 {
-        bail!(
-            "{}: no points: {} (cameras {cam_source}); nothing written",
-            shown(&scene, false),
-            match args.method {
-                Method::Levelset => format!(
-                    "no ray crossed the level(s) --level {} (try a lower --level or --depth median)",
-                    args.level
-                        .iter()
-                        .map(|l| l.to_string())
-                        .collect::<Vec<_>>()
-                        .join(",")
-                ),
-                Method::Centers => "no opaque Gaussian centre is seen by a camera".to_string(),
-                Method::Depth => "no view has a pixel with depth".to_string(),
-            }
-        );
-    }
-    let pc = to_point_cloud(points, args.provenance);
-    save_points(&args.output, &pc, Format::BinaryLittleEndian)?;
+    )
+}
+
+/// The human summary (stderr) and the JSON report: `n` points written
+/// from `views`, seconds since `t0`.
+fn report(
+    args: &Splat2PointsArgs,
+    scene: &Path,
+    g: &Gaussians3,
+    views: &Views,
+    n: usize,
+    t0: std::time::Instant,
+) -> anyhow::Result<()> {
+    let (n_all, cam_source) = (views.n_all, &views.source);
+    let views = views.cams.len();
     args.common.say(format!(
         "splat2points: {} Gaussians, {} of {n_all} views -> {n} points ({:?}, {:.1} s)",
         g.len(),
-        cams.len(),
+        views,
         args.method,
         t0.elapsed().as_secs_f64()
     ));
     args.common.emit_json(&json!({
-        "scene": shown(&scene, false),
+        "scene": shown(scene, false),
         "cameras": cam_source,
-        "views": cams.len(),
+        "views": views,
         "views_total": n_all,
         "gaussians": g.len(),
         "points": n,
