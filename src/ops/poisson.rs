@@ -12,7 +12,7 @@ use clap::Args;
 use serde_json::json;
 
 use crate::cli::{Common, fraction_f64, nonneg_f64, positive_f64, shown};
-use crate::geom::poisson::pipeline::{PipelineOptions, run_pipeline_with_progress};
+use crate::geom::poisson::pipeline::{PipelineOptions, PipelineOutput, run_pipeline_with_progress};
 use crate::geom::poisson::{PoissonParams, STAGES};
 use crate::geom::scene_split::{Aabb, SceneSplit};
 use crate::io::any::{MeshWriteOptions, load_points, save_mesh};
@@ -132,13 +132,58 @@ fn full_nodes(full: u32) -> u64 {
     (0..=full).fold(0u64, |a, l| a.saturating_add(8u64.saturating_pow(l)))
 }
 
-/// `poisson` entry point.
+/// `poisson` entry point: checks the octree's memory, builds the
+/// pipeline's options ([`pipeline_options`]), reads the points, runs
+/// [`run_pipeline_with_progress`], writes the mesh (always PLY) and
+/// reports.
 pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
     args.common.init()?;
     args.common.check_output(&args.output, true)?;
-    // The complete levels are allocated whatever the points: checked
-    // before anything is read (the adaptive part grows with the input).
-    // (with --width the depth is known only from the points: not capped)
+    check_octree_budget(&args)?;
+    if args.foreground_only && args.split_by_cameras.is_none() && args.bbox.is_none() {
+        anyhow::bail!("--foreground-only needs --split-by-cameras or --bbox");
+    }
+    let opt = pipeline_options(&args)?;
+    let cloud = load_points(&args.input, "poisson")?;
+    let parts = if opt.split.is_some() && !opt.foreground_only {
+        2
+    } else {
+        1
+    };
+    let pb = args
+        .common
+        .progress((parts * STAGES.len()) as u64, "poisson");
+    let out = run_pipeline_with_progress(cloud, &opt, &|part, stage| {
+        pb.set_message(format!("{part}: {stage}"));
+        pb.inc(1);
+    })
+    .with_context(|| match args.width {
+        // the depth the error may name is the one --width implies
+        Some(w) => format!(
+            "reconstructing {} with --width {w:?}",
+            shown(&args.input, false)
+        ),
+        None => format!("reconstructing {}", shown(&args.input, false)),
+    })?;
+    pb.finish_and_clear();
+    if out.mesh.faces.is_empty() && !args.allow_empty {
+        return Err(empty_mesh_error(&args, &opt, &out));
+    }
+    // Always PLY: the per-vertex density travels only there.
+    save_mesh(
+        &args.output,
+        &out.mesh,
+        FileFormat::Ply,
+        &MeshWriteOptions::default(),
+    )?;
+    report(&args, &out)
+}
+
+/// The complete levels of the octree are allocated whatever the points:
+/// checked against the memory budget before anything is read (a usage
+/// error; the adaptive part grows with the input). With `--width` the
+/// depth is known only from the points: not capped.
+fn check_octree_budget(args: &PoissonArgs) -> anyhow::Result<()> {
     let depth = match args.width {
         Some(_) => 16,
         None => args.depth.unwrap_or(if args.sugar { 10 } else { 8 }),
@@ -153,9 +198,14 @@ pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
         full_nodes(full).saturating_mul(BYTES_PER_FULL_NODE),
     )
     .map_err(|e| crate::cli::usage(e.to_string()))?;
-    if args.foreground_only && args.split_by_cameras.is_none() && args.bbox.is_none() {
-        anyhow::bail!("--foreground-only needs --split-by-cameras or --bbox");
-    }
+    Ok(())
+}
+
+/// The pipeline's options from the flags and SuGaR's preset (`--sugar`:
+/// depth 10, outliers k = 20, trim quantile 0.1); the foreground /
+/// background split from `--split-by-cameras` (the cameras are read here)
+/// and `--bbox`.
+fn pipeline_options(args: &PoissonArgs) -> anyhow::Result<PipelineOptions> {
     let mut split = match &args.split_by_cameras {
         Some(path) => {
             let cams = crate::io::cameras::read_cameras(path)?;
@@ -181,7 +231,7 @@ pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
     }
     let outlier_k = args.outlier_k.or(args.sugar.then_some(20));
     let outlier_std = args.outlier_std.unwrap_or(20.0);
-    let opt = PipelineOptions {
+    Ok(PipelineOptions {
         params: PoissonParams {
             depth: args.depth.unwrap_or(if args.sugar { 10 } else { 8 }),
             full_depth: args.full_depth,
@@ -200,48 +250,30 @@ pub fn run(args: PoissonArgs) -> anyhow::Result<()> {
         auto_depth: args.auto_depth,
         trim_quantile: args.trim_quantile.or(args.sugar.then_some(0.1)),
         trim_threshold: args.trim,
-    };
-    let cloud = load_points(&args.input, "poisson")?;
-    let parts = if opt.split.is_some() && !opt.foreground_only {
-        2
-    } else {
-        1
-    };
-    let pb = args
-        .common
-        .progress((parts * STAGES.len()) as u64, "poisson");
-    let out = run_pipeline_with_progress(cloud, &opt, &|part, stage| {
-        pb.set_message(format!("{part}: {stage}"));
-        pb.inc(1);
     })
-    .with_context(|| match args.width {
-        // the depth the error may name is the one --width implies
-        Some(w) => format!(
-            "reconstructing {} with --width {w:?}",
-            shown(&args.input, false)
-        ),
-        None => format!("reconstructing {}", shown(&args.input, false)),
-    })?;
-    pb.finish_and_clear();
-    if out.mesh.faces.is_empty() && !args.allow_empty {
-        let cause = match (opt.trim_threshold, opt.trim_quantile) {
-            (Some(t), _) => format!("--trim {t:?} removed every face"),
-            (None, Some(q)) => format!("--trim-quantile {q:?} removed every face"),
-            _ if !out.skipped.is_empty() => "every part was skipped".to_string(),
-            _ => "the reconstruction made no surface: check --scale and the normals".to_string(),
-        };
-        anyhow::bail!(
-            "{}: no face is left ({cause}); nothing written (--allow-empty writes the empty mesh)",
-            shown(&args.input, false)
-        );
-    }
-    // Always PLY: the per-vertex density travels only there.
-    save_mesh(
-        &args.output,
-        &out.mesh,
-        FileFormat::Ply,
-        &MeshWriteOptions::default(),
-    )?;
+}
+
+/// The error of a reconstruction with no face left, with its cause.
+fn empty_mesh_error(
+    args: &PoissonArgs,
+    opt: &PipelineOptions,
+    out: &PipelineOutput,
+) -> anyhow::Error {
+    let cause = match (opt.trim_threshold, opt.trim_quantile) {
+        (Some(t), _) => format!("--trim {t:?} removed every face"),
+        (None, Some(q)) => format!("--trim-quantile {q:?} removed every face"),
+        _ if !out.skipped.is_empty() => "every part was skipped".to_string(),
+        _ => "the reconstruction made no surface: check --scale and the normals".to_string(),
+    };
+    anyhow::anyhow!(
+        "{}: no face is left ({cause}); nothing written (--allow-empty writes the empty mesh)",
+        shown(&args.input, false)
+    )
+}
+
+/// The human summary (stderr: one line per part, the skipped parts, the
+/// points dropped beyond the background) and the JSON report.
+fn report(args: &PoissonArgs, out: &PipelineOutput) -> anyhow::Result<()> {
     for r in &out.parts {
         let s = &r.poisson;
         args.common.say(format!(
