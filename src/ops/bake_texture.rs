@@ -13,10 +13,11 @@ use serde_json::json;
 
 use crate::cli::orbit::{SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, positive_f64, shown, usage};
-use crate::geom::texture_bake::{self, BakeParams, DEFAULT_SQUARE};
+use crate::geom::texture_bake::{self, BakeParams, BakeStats, DEFAULT_SQUARE};
 use crate::io::any::{MeshWriteOptions, load_gaussians, load_mesh, save_mesh};
 use crate::io::cameras::read_cameras;
 use crate::io::detect::FileFormat;
+use crate::model::{Camera, Gaussians, Mesh};
 
 /// Arguments of `bake-texture`.
 #[derive(Args, Debug, Clone)]
@@ -61,9 +62,45 @@ pub struct BakeTextureArgs {
     pub common: Common,
 }
 
-/// `bake-texture` entry point.
+/// `bake-texture` entry point: checks the three outputs, reads the mesh,
+/// the Gaussians and the cameras within the memory budget
+/// ([`load_inputs`]), bakes ([`texture_bake::bake_texture`]), writes the
+/// OBJ with its MTL and PNG, and reports.
 pub fn run(args: BakeTextureArgs) -> anyhow::Result<()> {
     args.common.init()?;
+    check_outputs(&args)?;
+    let t0 = std::time::Instant::now();
+    let params = BakeParams {
+        square: args.square_size,
+        near: args.near,
+        max_texture: args.max_texture,
+    };
+    let (mesh, gaussians, cams) = load_inputs(&args, &params)?;
+    let pb = args.common.progress(cams.len() as u64, "bake-texture");
+    let (textured, stats) =
+        texture_bake::bake_texture(&mesh, &gaussians, &cams, &params, |_| pb.inc(1)).with_context(
+            || {
+                format!(
+                    "baking {} with {}",
+                    shown(&args.mesh, false),
+                    shown(&args.gaussians, false)
+                )
+            },
+        )?;
+    pb.finish_and_clear();
+    save_mesh(
+        &args.output,
+        &textured,
+        FileFormat::Obj,
+        &MeshWriteOptions::default(),
+    )
+    .with_context(|| format!("writing {}", args.output.display()))?;
+    report(&args, &stats, t0.elapsed().as_secs_f64())
+}
+
+/// `-o` names an OBJ (not stdout); it and the MTL and PNG written beside
+/// it can be created, and none of them is an input. Before any work.
+fn check_outputs(args: &BakeTextureArgs) -> anyhow::Result<()> {
     if args.output.as_os_str() == "-" {
         return Err(usage(
             "-o: bake-texture writes three files (OBJ, MTL, PNG) and cannot write to stdout",
@@ -88,16 +125,21 @@ pub fn run(args: BakeTextureArgs) -> anyhow::Result<()> {
             &format!("-o {} (its {})", args.output.display(), ext.to_uppercase()),
         )?;
     }
-    let t0 = std::time::Instant::now();
+    Ok(())
+}
+
+/// The mesh, the Gaussians and the cameras, each refused as soon as it
+/// is read when it cannot be baked: a texture larger than
+/// `--max-texture` or the memory budget (from the mesh's face count), no
+/// Gaussian, no camera, or render buffers beyond the budget.
+fn load_inputs(
+    args: &BakeTextureArgs,
+    params: &BakeParams,
+) -> anyhow::Result<(Mesh, Gaussians, Vec<Camera>)> {
     let mesh = load_mesh(&args.mesh, "bake-texture")
         .with_context(|| format!("reading {}", shown(&args.mesh, false)))?;
-    let params = BakeParams {
-        square: args.square_size,
-        near: args.near,
-        max_texture: args.max_texture,
-    };
     // Refused here, before the Gaussians are read or anything allocated.
-    texture_bake::check_texture_size(mesh.faces.len(), &params)
+    texture_bake::check_texture_size(mesh.faces.len(), params)
         .with_context(|| format!("baking {}", shown(&args.mesh, false)))?;
     // The atlas the mesh's face count and --square-size make, within the
     // memory budget (the views are added once the cameras are read).
@@ -136,26 +178,12 @@ pub fn run(args: BakeTextureArgs) -> anyhow::Result<()> {
         ),
         texture_bake::bake_bytes(mesh.faces.len(), args.square_size, largest),
     )?;
-    let pb = args.common.progress(cams.len() as u64, "bake-texture");
-    let (textured, stats) =
-        texture_bake::bake_texture(&mesh, &gaussians, &cams, &params, |_| pb.inc(1)).with_context(
-            || {
-                format!(
-                    "baking {} with {}",
-                    shown(&args.mesh, false),
-                    shown(&args.gaussians, false)
-                )
-            },
-        )?;
-    pb.finish_and_clear();
-    save_mesh(
-        &args.output,
-        &textured,
-        FileFormat::Obj,
-        &MeshWriteOptions::default(),
-    )
-    .with_context(|| format!("writing {}", args.output.display()))?;
-    let secs = t0.elapsed().as_secs_f64();
+    Ok((mesh, gaussians, cams))
+}
+
+/// The human summary (stderr) and the JSON report of a written texture;
+/// `secs` is the run's seconds so far.
+fn report(args: &BakeTextureArgs, stats: &BakeStats, secs: f64) -> anyhow::Result<()> {
     args.common.say(format!(
         "bake-texture: {} faces, {}x{} texture from {} views ({:.1}% of faces seen) into {} ({secs:.1} s)",
         stats.faces,
