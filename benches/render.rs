@@ -134,13 +134,15 @@ fn main() {
         .to_raster();
     let cams = splatkit::geom::orbit::orbit_cameras(
         &g.means,
-        8,
-        1280,
-        720,
-        50.0,
-        15.0,
-        None,
-        DVec3::new(0.0, -1.0, 0.0),
+        &splatkit::geom::orbit::OrbitRing {
+            views: 8,
+            width: 1280,
+            height: 720,
+            fov_deg: 50.0,
+            elevation_deg: 15.0,
+            radius: None,
+            up: DVec3::new(0.0, -1.0, 0.0),
+        },
     )
     .expect("orbit");
     let (mut fwd, mut both, mut contributions) = (0.0, 0.0, 0.0);

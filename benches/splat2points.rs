@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use splatkit::geom::levelset::{LevelsetOptions, sample_levelset};
-use splatkit::geom::orbit::orbit_cameras;
+use splatkit::geom::orbit::{OrbitRing, orbit_cameras};
 use splatkit::geom::synthetic::Torus;
 
 fn main() {
@@ -39,13 +39,15 @@ fn main() {
     let ring = |n: usize, e: f64| {
         orbit_cameras(
             &t.mesh(64, 24).vertices,
-            n,
-            1000,
-            1000,
-            50.0,
-            e,
-            Some(3.6),
-            DVec3::Y,
+            &OrbitRing {
+                views: n,
+                width: 1000,
+                height: 1000,
+                fov_deg: 50.0,
+                elevation_deg: e,
+                radius: Some(3.6),
+                up: DVec3::Y,
+            },
         )
         .expect("cameras")
     };

@@ -5,7 +5,7 @@
 
 use assert_cmd::Command;
 use glam::DVec3;
-use splatkit::geom::orbit::orbit_cameras;
+use splatkit::geom::orbit::{OrbitRing, orbit_cameras};
 use splatkit::geom::synthetic::Torus;
 use splatkit::io::ply::{Format, gaussians::write_gaussians, points::parse_points};
 
@@ -45,25 +45,29 @@ fn model_folder(dir: &std::path::Path) {
     }
     let mut cams = orbit_cameras(
         &T.mesh(32, 12).vertices,
-        8,
-        128,
-        128,
-        50.0,
-        35.0,
-        Some(3.6),
-        DVec3::Y,
+        &OrbitRing {
+            views: 8,
+            width: 128,
+            height: 128,
+            fov_deg: 50.0,
+            elevation_deg: 35.0,
+            radius: Some(3.6),
+            up: DVec3::Y,
+        },
     )
     .unwrap();
     cams.extend(
         orbit_cameras(
             &T.mesh(32, 12).vertices,
-            8,
-            128,
-            128,
-            50.0,
-            -35.0,
-            Some(3.6),
-            DVec3::Y,
+            &OrbitRing {
+                views: 8,
+                width: 128,
+                height: 128,
+                fov_deg: 50.0,
+                elevation_deg: -35.0,
+                radius: Some(3.6),
+                up: DVec3::Y,
+            },
         )
         .unwrap()
         .into_iter()
@@ -289,7 +293,19 @@ fn bad_input_is_an_error() {
         .iter()
         .map(|v| [v[0] + 100.0, v[1], v[2]])
         .collect();
-    let away = orbit_cameras(&far, 8, 64, 64, 50.0, 35.0, Some(3.6), DVec3::Y).unwrap();
+    let away = orbit_cameras(
+        &far,
+        &OrbitRing {
+            views: 8,
+            width: 64,
+            height: 64,
+            fov_deg: 50.0,
+            elevation_deg: 35.0,
+            radius: Some(3.6),
+            up: DVec3::Y,
+        },
+    )
+    .unwrap();
     let away_path = dir.path().join("away.json");
     splatkit::io::cameras::write_gs_json(&away_path, &away).unwrap();
     for method in ["levelset", "centers", "depth"] {

@@ -784,13 +784,15 @@ mod tests {
         }
         let cams = crate::geom::orbit::orbit_cameras(
             &g.means,
-            6,
-            128,
-            128,
-            50.0,
-            20.0,
-            Some(4.0),
-            glam::DVec3::Z,
+            &crate::geom::orbit::OrbitRing {
+                views: 6,
+                width: 128,
+                height: 128,
+                fov_deg: 50.0,
+                elevation_deg: 20.0,
+                radius: Some(4.0),
+                up: glam::DVec3::Z,
+            },
         )
         .unwrap();
         let on_sphere = |pts: &LevelPoints, what: &str| {

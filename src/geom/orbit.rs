@@ -6,18 +6,53 @@ use glam::{DMat3, DVec3};
 use crate::model::{Camera, OrbitSpec};
 use crate::{Error, Result};
 
-/// Orbit cameras around the central 96% box of `points`.
-#[allow(clippy::too_many_arguments)]
-pub fn orbit_cameras(
-    points: &[[f32; 3]],
-    n: usize,
-    width: u32,
-    height: u32,
-    fov_deg: f64,
-    elevation_deg: f64,
-    radius: Option<f64>,
-    up: DVec3,
-) -> Result<Vec<Camera>> {
+/// One ring of orbit cameras: `views` cameras evenly spaced in azimuth,
+/// `elevation_deg` degrees above the horizon (the plane orthogonal to
+/// `up`), looking at the centre of the scene's central 96% box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrbitRing {
+    /// Cameras on the ring.
+    pub views: usize,
+    /// Image size in pixels.
+    pub width: u32,
+    pub height: u32,
+    /// Horizontal field of view, degrees, in (0, 180).
+    pub fov_deg: f64,
+    /// Elevation above the horizon, degrees.
+    pub elevation_deg: f64,
+    /// Distance from the centre (`None`: the central box fills the view).
+    pub radius: Option<f64>,
+    /// World up direction (non-zero).
+    pub up: DVec3,
+}
+
+impl OrbitRing {
+    /// The ring of `spec` at `elevation_deg`.
+    pub fn of(spec: &OrbitSpec, elevation_deg: f64) -> Self {
+        OrbitRing {
+            views: spec.views_per_ring,
+            width: spec.width,
+            height: spec.height,
+            fov_deg: spec.fov_deg,
+            elevation_deg,
+            radius: spec.radius,
+            up: spec.up,
+        }
+    }
+}
+
+/// The cameras of `ring` around the central 96% box of `points`, named
+/// `orbit_{i:03}`.
+pub fn orbit_cameras(points: &[[f32; 3]], ring: &OrbitRing) -> Result<Vec<Camera>> {
+    let OrbitRing {
+        views: n,
+        width,
+        height,
+        fov_deg,
+        elevation_deg,
+        radius,
+        up,
+    } = *ring;
     let finite: Vec<&[f32; 3]> = points
         .iter()
         .filter(|p| p.iter().all(|v| v.is_finite()))
@@ -96,16 +131,7 @@ pub fn orbit_cameras(
 pub fn orbit_rings(points: &[[f32; 3]], spec: &OrbitSpec) -> Result<Vec<Camera>> {
     let mut cams = Vec::with_capacity(spec.views_per_ring * spec.elevations_deg.len());
     for (ring, &el) in spec.elevations_deg.iter().enumerate() {
-        let mut ring_cams = orbit_cameras(
-            points,
-            spec.views_per_ring,
-            spec.width,
-            spec.height,
-            spec.fov_deg,
-            el,
-            spec.radius,
-            spec.up,
-        )?;
+        let mut ring_cams = orbit_cameras(points, &OrbitRing::of(spec, el))?;
         if ring > 0 {
             for (i, c) in ring_cams.iter_mut().enumerate() {
                 c.name = format!("orbit_r{ring}_{i:03}");

@@ -32,20 +32,22 @@ use serde_json::json;
 use std::time::Instant;
 
 use glam::DVec3;
-use splatkit_render::gaussian::{self, RasterSettings};
+use indicatif::ProgressBar;
+use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 
 use crate::cli::Common;
-use crate::eval::chamfer::{GenericParams, SampleMode, chamfer_generic, mesh_cloud};
+use crate::eval::chamfer::{GenericParams, GenericReport, SampleMode, chamfer_generic, mesh_cloud};
+use crate::geom::binding::{self, BindOptions};
 use crate::geom::clean::ComponentFilter;
 use crate::geom::cleanup::{CleanSteps, clean_mesh};
 use crate::geom::levelset::{LevelsetOptions, sample_levelset, to_point_cloud};
-use crate::geom::orbit::orbit_cameras;
+use crate::geom::orbit::{OrbitRing, orbit_cameras};
 use crate::geom::poisson::pipeline::{PipelineOptions, run_pipeline};
-use crate::geom::prune::{PruneParams, prune};
+use crate::geom::prune::{PruneParams, PruneReport, prune};
 use crate::geom::soup_mesh::{ExportParams, soup_to_mesh};
 use crate::geom::synthetic::{Torus, demo_soup};
 use crate::io::cameras::write_gs_json;
-use crate::io::describe::{describe, render_text};
+use crate::io::describe::{FileInfo, describe, render_text};
 use crate::io::gltf::{GltfWriteOptions, write_gltf};
 use crate::io::image::{to_u8, write_png8};
 use crate::io::off::{OffWriteOptions, write_off};
@@ -53,6 +55,9 @@ use crate::io::ply;
 use crate::io::ply::points::write_points;
 use crate::io::ply::{Format, soup::write_soup};
 use crate::io::{StagedDir, torch_pt, write_output};
+use crate::model::{BoundGaussians, Camera, Gaussians, Mesh, PointCloud, TriangleSoup};
+use crate::train::refine::{LearningRates, RefineParams, Refiner, spatial_lr_scale};
+use crate::train::trainer::Trainer;
 
 /// Command-line arguments of `demo`.
 #[derive(Args, Debug, Clone)]
@@ -103,14 +108,48 @@ pub const DEMO_TORUS: Torus = Torus {
     minor: 0.35,
 };
 
+/// Part 1's generated scene: the Gaussian torus as stored (`raw`) and
+/// ready to rasterise (`g`), the cameras of two rings around it, and the
+/// fine mesh of the exact torus (`truth`).
+struct DemoScene {
+    raw: Gaussians,
+    g: Gaussians3,
+    cams: Vec<Camera>,
+    truth: Mesh,
+}
+
 /// Part 1: Gaussians → points → mesh → score, files written into `dir`.
 /// Returns the JSON report and the table rows (stage, result, seconds).
 fn gaussian_part(
     args: &DemoArgs,
     dir: &Path,
 ) -> anyhow::Result<(serde_json::Value, Vec<StageRow>)> {
-    let out = |f: &str| -> PathBuf { dir.join(f) };
     let mut rows = Vec::new();
+    let scene = generate(args, dir, &mut rows)?;
+    let cloud = level_set_points(args, dir, &scene, &mut rows)?;
+    let mesh = mesh_points(args, dir, cloud, &mut rows)?;
+    let (report, exact) = score(args, &mesh, &scene.truth, &mut rows)?;
+    render_side_by_side(dir, &scene, &mesh, &mut rows)?;
+    let refined = bind_and_refine(args, dir, &scene, &mesh, &mut rows)?;
+    let json = json!({
+        "bind_refine": refined,
+        "gaussians": scene.g.len(),
+        "cameras": scene.cams.len(),
+        "points": rows[1].1,
+        "mesh_vertices": mesh.vertices.len(),
+        "mesh_faces": mesh.faces.len(),
+        "chamfer": report,
+        "mean_vertex_distance_to_torus": exact,
+        "stages": rows.iter().map(|r| json!({"stage": r.0, "result": r.1, "seconds": r.2})).collect::<Vec<_>>(),
+    });
+    Ok((json, rows))
+}
+
+/// Stage "generate": the Gaussian torus ([`DEMO_TORUS`], 300 floaters,
+/// `--seed`), `--views` cameras of `--size` on two rings (35° above and
+/// below, radius 3.6) and the exact torus; writes `scene.ply`,
+/// `cameras.json` and `truth.ply`.
+fn generate(args: &DemoArgs, dir: &Path, rows: &mut Vec<StageRow>) -> anyhow::Result<DemoScene> {
     let t = Instant::now();
     let raw = DEMO_TORUS.gaussians(160, 56, 0.004, 300, args.seed);
     let g = raw.to_raster();
@@ -118,13 +157,15 @@ fn gaussian_part(
     let ring = |n: usize, elevation: f64| {
         orbit_cameras(
             &DEMO_TORUS.mesh(64, 24).vertices,
-            n,
-            args.size,
-            args.size,
-            50.0,
-            elevation,
-            Some(3.6),
-            DVec3::Y,
+            &OrbitRing {
+                views: n,
+                width: args.size,
+                height: args.size,
+                fov_deg: 50.0,
+                elevation_deg: elevation,
+                radius: Some(3.6),
+                up: DVec3::Y,
+            },
         )
     };
     let views = args.views.max(2);
@@ -133,12 +174,12 @@ fn gaussian_part(
         c.name = format!("below_{k:03}");
         cams.push(c);
     }
-    write_output(&out("scene.ply"), |w| {
+    write_output(&dir.join("scene.ply"), |w| {
         ply::gaussians::write_gaussians(w, &raw, Format::BinaryLittleEndian)
     })?;
-    write_gs_json(&out("cameras.json"), &cams)?;
+    write_gs_json(&dir.join("cameras.json"), &cams)?;
     let truth = DEMO_TORUS.mesh(720, 240);
-    write_output(&out("truth.ply"), |w| {
+    write_output(&dir.join("truth.ply"), |w| {
         ply::mesh::write_mesh(w, &truth, Format::BinaryLittleEndian)
     })?;
     rows.push((
@@ -151,15 +192,31 @@ fn gaussian_part(
         ),
         t.elapsed().as_secs_f64(),
     ));
+    Ok(DemoScene {
+        raw,
+        g,
+        cams,
+        truth,
+    })
+}
+
+/// Stage "splat2points": SuGaR's level-set points (level 0.3, at most a
+/// million, `--seed`) of the scene from every camera; writes `points.ply`.
+fn level_set_points(
+    args: &DemoArgs,
+    dir: &Path,
+    scene: &DemoScene,
+    rows: &mut Vec<StageRow>,
+) -> anyhow::Result<PointCloud> {
     let t = Instant::now();
     let opts = LevelsetOptions {
         max_points: 1_000_000,
         seed: args.seed,
         ..Default::default()
     };
-    let pts = sample_levelset(&g, &cams, &opts, |_| ())?;
+    let pts = sample_levelset(&scene.g, &scene.cams, &opts, |_| ())?;
     let cloud = to_point_cloud(pts, false);
-    write_output(&out("points.ply"), |w| {
+    write_output(&dir.join("points.ply"), |w| {
         write_points(w, &cloud, Format::BinaryLittleEndian)
     })?;
     rows.push((
@@ -167,6 +224,17 @@ fn gaussian_part(
         format!("{} points (level 0.3)", cloud.positions.len()),
         t.elapsed().as_secs_f64(),
     ));
+    Ok(cloud)
+}
+
+/// Stages "poisson" (depth `--depth`) and "clean" (the largest
+/// component kept): the mesh of the points; writes `mesh.ply`.
+fn mesh_points(
+    args: &DemoArgs,
+    dir: &Path,
+    cloud: PointCloud,
+    rows: &mut Vec<StageRow>,
+) -> anyhow::Result<Mesh> {
     let t = Instant::now();
     let mut popt = PipelineOptions::default();
     popt.params.depth = args.depth;
@@ -191,7 +259,7 @@ fn gaussian_part(
         ..Default::default()
     };
     clean_mesh(&mut mesh, &steps);
-    write_output(&out("mesh.ply"), |w| {
+    write_output(&dir.join("mesh.ply"), |w| {
         ply::mesh::write_mesh(w, &mesh, Format::BinaryLittleEndian)
     })?;
     rows.push((
@@ -203,6 +271,18 @@ fn gaussian_part(
         ),
         t.elapsed().as_secs_f64(),
     ));
+    Ok(mesh)
+}
+
+/// Stage "chamfer": the mesh against the exact torus's mesh (200,000
+/// area samples each, thresholds 0.01 and 0.02, `--seed`), and the mean
+/// distance of the mesh's vertices to the exact torus (scene units).
+fn score(
+    args: &DemoArgs,
+    mesh: &Mesh,
+    truth: &Mesh,
+    rows: &mut Vec<StageRow>,
+) -> anyhow::Result<(GenericReport, f64)> {
     let t = Instant::now();
     let cp = GenericParams {
         sample: SampleMode::Area,
@@ -211,7 +291,7 @@ fn gaussian_part(
         seed: args.seed,
         ..GenericParams::vertices()
     };
-    let report = chamfer_generic(&mesh_cloud(&mesh, &cp)?, &mesh_cloud(&truth, &cp)?, &cp)?;
+    let report = chamfer_generic(&mesh_cloud(mesh, &cp)?, &mesh_cloud(truth, &cp)?, &cp)?;
     let exact: f64 = mesh
         .vertices
         .iter()
@@ -226,13 +306,24 @@ fn gaussian_part(
         ),
         t.elapsed().as_secs_f64(),
     ));
+    Ok((report, exact))
+}
+
+/// Stage "render": the first camera's view of the splats (white
+/// background) beside the lit mesh, written as `view.png`.
+fn render_side_by_side(
+    dir: &Path,
+    scene: &DemoScene,
+    mesh: &Mesh,
+    rows: &mut Vec<StageRow>,
+) -> anyhow::Result<()> {
     let t = Instant::now();
-    let view = &cams[0];
+    let view = &scene.cams[0];
     let s = RasterSettings {
         background: [1.0; 3],
         near: 0.2,
     };
-    let splats = gaussian::render(&g, view, &s);
+    let splats = gaussian::render(&scene.g, view, &s);
     let z = splatkit_render::mesh::render(&mesh.vertices, &mesh.faces, view, 0.2);
     let (w, h) = (view.width as usize, view.height as usize);
     let mut side = vec![255u8; 2 * w * h * 3];
@@ -250,7 +341,7 @@ fn gaussian_part(
             side[base + 3 * w..base + 3 * w + 3].copy_from_slice(&[shade; 3]);
         }
     }
-    write_output(&out("view.png"), |wr| {
+    write_output(&dir.join("view.png"), |wr| {
         write_png8(wr, "view.png", 2 * w, h, 3, &side)
     })?;
     rows.push((
@@ -258,44 +349,41 @@ fn gaussian_part(
         "view.png: splats | mesh".into(),
         t.elapsed().as_secs_f64(),
     ));
-    let refined = bind_and_refine(args, dir, &raw, &g, &mesh, &cams, &mut rows)?;
-    let json = json!({
-        "bind_refine": refined,
-        "gaussians": g.len(),
-        "cameras": cams.len(),
-        "points": rows[1].1,
-        "mesh_vertices": mesh.vertices.len(),
-        "mesh_faces": mesh.faces.len(),
-        "chamfer": report,
-        "mean_vertex_distance_to_torus": exact,
-        "stages": rows.iter().map(|r| json!({"stage": r.0, "result": r.1, "seconds": r.2})).collect::<Vec<_>>(),
-    });
-    Ok((json, rows))
+    Ok(())
 }
 
 /// Part 1b, SuGaR's second half: Gaussians bound to the cleaned mesh,
 /// decimated to `--bind-faces` (1 per face, colours from the scene), refined for `--refine-iterations` against
 /// renders of the scene from the same cameras (every 8th held out); writes
 /// `bound.ply` and `refined_bound.ply` and reports held-out PSNR.
-#[allow(clippy::too_many_arguments)]
 fn bind_and_refine(
     args: &DemoArgs,
     dir: &Path,
-    raw: &crate::model::Gaussians,
-    g: &splatkit_render::gaussian::Gaussians3,
-    mesh: &crate::model::Mesh,
-    cams: &[crate::model::Camera],
+    scene: &DemoScene,
+    mesh: &Mesh,
     rows: &mut Vec<StageRow>,
 ) -> anyhow::Result<serde_json::Value> {
-    use crate::geom::binding::{self, BindOptions};
-    use crate::train::refine::{LearningRates, RefineParams, Refiner, spatial_lr_scale};
-    use crate::train::trainer::Trainer;
+    let (b, extent) = bind_stage(args, dir, scene, mesh, rows)?;
+    refine_stage(args, dir, scene, b, extent, rows)
+}
+
+/// Stage "bind": the mesh decimated to `--bind-faces`, one Gaussian per
+/// face (thickness 1e-6 × the cameras' extent, SH degree 3), coloured from
+/// the scene's Gaussians; writes `bound.ply`. Returns the bound Gaussians
+/// and the cameras' extent (NeRF++ radius, scene units; 1 when undefined).
+fn bind_stage(
+    args: &DemoArgs,
+    dir: &Path,
+    scene: &DemoScene,
+    mesh: &Mesh,
+    rows: &mut Vec<StageRow>,
+) -> anyhow::Result<(BoundGaussians, f64)> {
     let t = Instant::now();
     let (mesh, _) = crate::geom::decimate::decimate(
         mesh,
         crate::geom::decimate::Target::Faces(args.bind_faces),
     )?;
-    let centres: Vec<[f64; 3]> = cams.iter().map(|c| c.center().to_array()).collect();
+    let centres: Vec<[f64; 3]> = scene.cams.iter().map(|c| c.center().to_array()).collect();
     let extent = crate::model::rig::nerfpp_radius(&centres).unwrap_or(1.0);
     let mut b = binding::bind(
         &mesh,
@@ -308,15 +396,8 @@ fn bind_and_refine(
     )
     .map_err(|m| anyhow::anyhow!("binding the demo mesh: {m}"))?;
     let at: Vec<[f64; 3]> = (0..b.len()).map(|i| binding::mean_of(&b, i)).collect();
-    b.sh_dc = binding::colors::dc_from_gaussians(&at, raw)?;
-    let save = |name: &str, b: &crate::model::BoundGaussians| -> anyhow::Result<()> {
-        let file = ply::bound::attach(b, binding::materialize(b));
-        write_output(&dir.join(name), |w| {
-            ply::gaussians::write_gaussians(w, &file, Format::BinaryLittleEndian)
-        })?;
-        Ok(())
-    };
-    save("bound.ply", &b)?;
+    b.sh_dc = binding::colors::dc_from_gaussians(&at, &scene.raw)?;
+    save_bound_ply(dir, "bound.ply", &b)?;
     rows.push((
         "bind".into(),
         format!(
@@ -326,13 +407,29 @@ fn bind_and_refine(
         ),
         t.elapsed().as_secs_f64(),
     ));
+    Ok((b, extent))
+}
+
+/// Stage "refine": `b` refined for `--refine-iterations` against renders
+/// of the scene's Gaussians from every camera (every 8th held out, black
+/// background, `--seed`); writes `refined_bound.ply`. Returns the report's
+/// `bind_refine` entry (held-out PSNR in dB and SSIM, before and after).
+fn refine_stage(
+    args: &DemoArgs,
+    dir: &Path,
+    scene: &DemoScene,
+    b: BoundGaussians,
+    extent: f64,
+    rows: &mut Vec<StageRow>,
+) -> anyhow::Result<serde_json::Value> {
     let t = Instant::now();
     let s = RasterSettings::default();
-    let views: Vec<crate::model::View> = cams
+    let views: Vec<crate::model::View> = scene
+        .cams
         .iter()
         .map(|c| crate::model::View {
             camera: c.clone(),
-            image: gaussian::render(g, c, &s).rgb,
+            image: gaussian::render(&scene.g, c, &s).rgb,
             mask: None,
             alpha: None,
             source: c.name.clone(),
@@ -353,7 +450,7 @@ fn bind_and_refine(
         r.step(&views, &train);
     }
     let after = r.evaluate(&views, &test);
-    save("refined_bound.ply", &r.model)?;
+    save_bound_ply(dir, "refined_bound.ply", &r.model)?;
     rows.push((
         "refine".into(),
         format!(
@@ -371,6 +468,15 @@ fn bind_and_refine(
         "ssim_before": before.ssim,
         "ssim_after": after.ssim,
     }))
+}
+
+/// Writes `b` as the bound 3DGS PLY `dir/name`.
+fn save_bound_ply(dir: &Path, name: &str, b: &BoundGaussians) -> anyhow::Result<()> {
+    let file = ply::bound::attach(b, binding::materialize(b));
+    write_output(&dir.join(name), |w| {
+        ply::gaussians::write_gaussians(w, &file, Format::BinaryLittleEndian)
+    })?;
+    Ok(())
 }
 
 /// Bytes per pixel of every demo view held at once: the reference render
@@ -439,14 +545,52 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let staged = StagedDir::new(&args.output)
         .with_context(|| format!("creating {}", args.output.display()))?;
     let (gauss_json, rows) = gaussian_part(&args, staged.path())?;
-    let out = |f: &str| -> PathBuf { staged.path().join(f) };
     let (soup, surface) = demo_soup(args.seed, args.segments);
     let pb = args.common.progress(5, "demo");
+    let part2 = triangle_part(&args, staged.path(), &soup, surface, &pb)?;
+    staged.commit()?;
+    pb.finish_and_clear();
+    if !args.common.quiet && !args.common.json_to_stdout() {
+        print_summary(&args, &rows, &soup, surface, &part2);
+    }
+    args.common.emit_json(&json!({
+        "output": shown_dir(&args.output),
+        "gaussian_pipeline": gauss_json,
+        "triangles": soup.len(),
+        "surface_triangles": surface,
+        "prune": part2.report,
+        "exported_vertices": part2.mesh.vertices.len(),
+        "exported_faces": part2.mesh.faces.len(),
+        "files": part2.infos,
+    }))
+}
+
+/// What part 2 made: the prune report, the exported mesh and the
+/// descriptions of its files.
+struct TrianglePart {
+    report: PruneReport,
+    mesh: Mesh,
+    infos: Vec<FileInfo>,
+}
+
+/// Part 2: the triangle scene `soup` (`surface` of its triangles on the
+/// torus) written as `scene.pt` and `scene_soup.ply`, pruned with the
+/// game-engine preset (`solid.pt`; the self-check: exactly the surface is
+/// kept) and exported as `solid.off` and `solid.glb`, into `dir`; `pb`
+/// advances after each of the four steps.
+fn triangle_part(
+    args: &DemoArgs,
+    dir: &Path,
+    soup: &TriangleSoup,
+    surface: usize,
+    pb: &ProgressBar,
+) -> anyhow::Result<TrianglePart> {
+    let out = |f: &str| -> PathBuf { dir.join(f) };
     write_output(&out("scene.pt"), |w| {
-        torch_pt::write_triangle_checkpoint(w, &soup)
+        torch_pt::write_triangle_checkpoint(w, soup)
     })?;
     write_output(&out("scene_soup.ply"), |w| {
-        write_soup(w, &soup, Format::BinaryLittleEndian)
+        write_soup(w, soup, Format::BinaryLittleEndian)
     })?;
     pb.inc(1);
     let game = PruneParams {
@@ -455,7 +599,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         max_count: None,
         solidify: true,
     };
-    let (solid, report) = prune(&soup, &game);
+    let (solid, report) = prune(soup, &game);
     ensure!(
         report.kept == surface,
         "demo self-check failed: pruning kept {} triangles, the torus has {surface}",
@@ -485,43 +629,45 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             })
         })
         .collect::<crate::Result<_>>()?;
-    staged.commit()?;
-    pb.finish_and_clear();
-    if !args.common.quiet && !args.common.json_to_stdout() {
-        eprintln!(
-            "demo, part 1: Gaussian torus -> points -> mesh -> score -> bound Gaussians -> refined"
-        );
-        eprintln!("  {:<13} {:<78} {:>8}", "stage", "result", "seconds");
-        for (stage, result, secs) in &rows {
-            eprintln!("  {stage:<13} {result:<78} {secs:>8.2}");
-        }
-        eprintln!(
-            "demo, part 2: generated {} triangles ({} on a torus, {} floaters); prune kept {}; exported {} vertices / {} faces",
-            soup.len(),
-            surface,
-            soup.len() - surface,
-            report.kept,
-            mesh.vertices.len(),
-            mesh.faces.len()
-        );
-        for i in &infos {
-            eprint!("{}", render_text(i));
-        }
-        eprintln!(
-            "outputs in {}: scene.ply cameras.json truth.ply points.ply mesh.ply view.png bound.ply refined_bound.ply (part 1), scene.pt scene_soup.ply solid.pt solid.off solid.glb (part 2)",
-            shown_dir(&args.output)
-        );
+    Ok(TrianglePart {
+        report,
+        mesh,
+        infos,
+    })
+}
+
+/// The human summary on stderr: part 1's table of stages, part 2's
+/// counts and file descriptions, and the list of outputs.
+fn print_summary(
+    args: &DemoArgs,
+    rows: &[StageRow],
+    soup: &TriangleSoup,
+    surface: usize,
+    part2: &TrianglePart,
+) {
+    eprintln!(
+        "demo, part 1: Gaussian torus -> points -> mesh -> score -> bound Gaussians -> refined"
+    );
+    eprintln!("  {:<13} {:<78} {:>8}", "stage", "result", "seconds");
+    for (stage, result, secs) in rows {
+        eprintln!("  {stage:<13} {result:<78} {secs:>8.2}");
     }
-    args.common.emit_json(&json!({
-        "output": shown_dir(&args.output),
-        "gaussian_pipeline": gauss_json,
-        "triangles": soup.len(),
-        "surface_triangles": surface,
-        "prune": report,
-        "exported_vertices": mesh.vertices.len(),
-        "exported_faces": mesh.faces.len(),
-        "files": infos,
-    }))
+    eprintln!(
+        "demo, part 2: generated {} triangles ({} on a torus, {} floaters); prune kept {}; exported {} vertices / {} faces",
+        soup.len(),
+        surface,
+        soup.len() - surface,
+        part2.report.kept,
+        part2.mesh.vertices.len(),
+        part2.mesh.faces.len()
+    );
+    for i in &part2.infos {
+        eprint!("{}", render_text(i));
+    }
+    eprintln!(
+        "outputs in {}: scene.ply cameras.json truth.ply points.ply mesh.ply view.png bound.ply refined_bound.ply (part 1), scene.pt scene_soup.ply solid.pt solid.off solid.glb (part 2)",
+        shown_dir(&args.output)
+    );
 }
 
 fn shown_dir(p: &Path) -> String {
