@@ -7,7 +7,7 @@
 //! radius 3.2 at 30° elevation looking at the origin. The atlas is SuGaR
 //! V2's (squares of 8 texels): ⌊√100,001 + 1⌋ = 317 squares, 2,536² texels.
 //!
-//! Timed: `geom::texture_bake::bake_texture` (20 mesh z-buffers, 20 DC-only
+//! Timed: `geom::mesh_ops::texture_bake::bake_texture` (20 mesh z-buffers, 20 DC-only
 //! Gaussian renders, the accumulation and the fill), then writing the OBJ,
 //! MTL and PNG through `io::any::save_mesh` (what `bake-texture` does after
 //! loading its inputs). Reported: each time, peak RSS, seen-face fraction.
@@ -22,8 +22,8 @@ use common::peak_mb;
 use std::time::Instant;
 
 use glam::{DMat3, DQuat, DVec3};
-use splatkit::geom::synthetic::Torus;
-use splatkit::geom::texture_bake::{BakeParams, bake_texture};
+use splatkit::geom::mesh_ops::texture_bake::{BakeParams, bake_texture};
+use splatkit::geom::scenes::synthetic::Torus;
 use splatkit::io::any::{MeshWriteOptions, save_mesh};
 use splatkit::io::detect::FileFormat;
 use splatkit::model::gaussians::logit;

@@ -20,9 +20,9 @@ use common::peak_mb;
 use std::time::Instant;
 
 use rand::{RngExt, SeedableRng};
-use splatkit::geom::clean::{merge_duplicate_vertices, remove_non_manifold_edges};
-use splatkit::geom::decimate::{Target, decimate};
-use splatkit::geom::poisson::pipeline::{PipelineOptions, run_pipeline};
+use splatkit::geom::mesh_ops::clean::{merge_duplicate_vertices, remove_non_manifold_edges};
+use splatkit::geom::mesh_ops::decimate::{Target, decimate};
+use splatkit::geom::meshing::poisson::pipeline::{PipelineOptions, run_pipeline};
 use splatkit::model::PointCloud;
 
 fn scene(n: usize, seed: u64) -> PointCloud {
@@ -82,7 +82,7 @@ fn scene(n: usize, seed: u64) -> PointCloud {
 
 fn options(depth: u32, trim: Option<f64>) -> PipelineOptions {
     PipelineOptions {
-        params: splatkit::geom::poisson::PoissonParams {
+        params: splatkit::geom::meshing::poisson::PoissonParams {
             depth,
             ..Default::default()
         },

@@ -132,9 +132,9 @@ fn main() {
     let g = splatkit::io::ply::gaussians::parse_gaussians("biker", &bytes)
         .expect("biker parses")
         .to_raster();
-    let cams = splatkit::geom::orbit::orbit_cameras(
+    let cams = splatkit::geom::scenes::orbit::orbit_cameras(
         &g.means,
-        &splatkit::geom::orbit::OrbitRing {
+        &splatkit::geom::scenes::orbit::OrbitRing {
             views: 8,
             width: 1280,
             height: 720,

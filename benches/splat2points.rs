@@ -13,9 +13,9 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use splatkit::geom::levelset::{LevelsetOptions, sample_levelset};
-use splatkit::geom::orbit::{OrbitRing, orbit_cameras};
-use splatkit::geom::synthetic::Torus;
+use splatkit::geom::scenes::orbit::{OrbitRing, orbit_cameras};
+use splatkit::geom::scenes::synthetic::Torus;
+use splatkit::geom::surface_points::levelset::{LevelsetOptions, sample_levelset};
 
 fn main() {
     let env = |k: &str, d: f64| -> f64 {

@@ -32,7 +32,7 @@ use std::f64::consts::PI;
 use std::time::Instant;
 
 use glam::{DMat3, DVec3};
-use splatkit::geom::tsdf::{Frame, TsdfParams, TsdfVolume, extract_mesh};
+use splatkit::geom::meshing::tsdf::{Frame, TsdfParams, TsdfVolume, extract_mesh};
 use splatkit::model::Camera;
 use splatkit_render::mesh as zbuffer;
 
@@ -150,7 +150,9 @@ fn ring_cameras() -> Vec<Camera> {
 }
 
 fn unbounded(res: usize) {
-    use splatkit::geom::tsdf::{UnboundedParams, UnboundedView, camera_sphere, fuse_unbounded};
+    use splatkit::geom::meshing::tsdf::{
+        UnboundedParams, UnboundedView, camera_sphere, fuse_unbounded,
+    };
     let (v, f) = room_scene();
     let cams = ring_cameras();
     let t = Instant::now();
@@ -282,7 +284,7 @@ fn main() {
             color: Some(rgb),
         })
         .collect();
-    for batch in frames.chunks(splatkit::geom::tsdf::BATCH) {
+    for batch in frames.chunks(splatkit::geom::meshing::tsdf::BATCH) {
         vol.integrate_batch(batch).expect("integrate");
     }
     let ti = t.elapsed().as_secs_f64();

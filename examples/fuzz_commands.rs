@@ -942,7 +942,7 @@ fn write_seeds(dir: &Path, bin: &Path) {
         &Default::default(),
     )
     .expect("seed");
-    let (soup, _) = splatkit::geom::synthetic::demo_soup(1, 6);
+    let (soup, _) = splatkit::geom::scenes::synthetic::demo_soup(1, 6);
     save(
         &dir.join("soup.ply"),
         &Scene::TriangleSoup(soup.clone()),

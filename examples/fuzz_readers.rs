@@ -145,7 +145,7 @@ fn write_generated_seeds(dir: &Path) {
         let f = FileFormat::from_extension(&p).expect("known extension");
         save(&p, &Scene::Mesh(mesh.clone()), f).expect("write seed");
     }
-    let (soup, _) = splatkit::geom::synthetic::demo_soup(1, 4);
+    let (soup, _) = splatkit::geom::scenes::synthetic::demo_soup(1, 4);
     save(
         &dir.join("gen_soup.ply"),
         &Scene::TriangleSoup(soup.clone()),

@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use rayon::prelude::*;
-use splatkit::geom::marching_cubes::{edge_corners, table, triangulate};
+use splatkit::geom::meshing::marching_cubes::{edge_corners, table, triangulate};
 use splatkit::io::any::save_mesh;
 use splatkit::io::cameras::read_cameras;
 use splatkit::io::detect::FileFormat;

@@ -237,8 +237,8 @@ pub fn write_sphere_dataset(
 /// sampled uniformly by area on the mesh, mean distance from 20,000
 /// Fibonacci points on the sphere to the nearest of those samples).
 pub fn sphere_mesh_distance(m: &Mesh) -> crate::Result<(f64, f64)> {
-    use crate::geom::knn::NnIndex;
-    use crate::geom::sample::sample_area_uniform;
+    use crate::geom::sampling::knn::NnIndex;
+    use crate::geom::sampling::sample::sample_area_uniform;
     let v: Vec<[f64; 3]> = m.vertices.iter().map(|p| p.map(f64::from)).collect();
     let area: f64 = m
         .faces

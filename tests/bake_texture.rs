@@ -9,7 +9,7 @@ mod common;
 use std::path::Path;
 
 use glam::{DMat3, DQuat, DVec3};
-use splatkit::geom::texture_bake::{BakeParams, bake_texture};
+use splatkit::geom::mesh_ops::texture_bake::{BakeParams, bake_texture};
 use splatkit::io::ply::{Format, gaussians::write_gaussians, mesh::write_mesh};
 use splatkit::model::gaussians::logit;
 use splatkit::model::{Camera, Gaussians, Mesh};
@@ -130,7 +130,7 @@ fn faces_never_seen_take_their_gaussians_colour() {
     let cams = &cameras()[..1];
     let (textured, stats) = bake_texture(&mesh, &g, cams, &BakeParams::default(), |_| {}).unwrap();
     assert!(stats.seen_faces > 0 && stats.seen_faces < stats.faces / 2 + 20);
-    let atlas = splatkit::geom::texture_bake::Atlas::new(mesh.faces.len(), 8).unwrap();
+    let atlas = splatkit::geom::mesh_ops::texture_bake::Atlas::new(mesh.faces.len(), 8).unwrap();
     let tex = textured.texture.as_ref().unwrap();
     let centre = cams[0].center();
     let mut checked = 0;

@@ -4,7 +4,7 @@
 
 use assert_cmd::Command;
 use predicates::prelude::*;
-use splatkit::geom::synthetic::demo_soup;
+use splatkit::geom::scenes::synthetic::demo_soup;
 use splatkit::io::ply::{Format, soup::write_soup};
 use splatkit::model::{Extras, TriangleSoup};
 

@@ -669,7 +669,7 @@ fn folder_outputs_are_all_or_nothing() {
 fn decompression_is_capped_by_the_declared_tensors() {
     use std::io::{Read, Write};
     let dir = tempfile::tempdir().unwrap();
-    let (soup, _) = splatkit::geom::synthetic::demo_soup(1, 4);
+    let (soup, _) = splatkit::geom::scenes::synthetic::demo_soup(1, 4);
     let stored = dir.path().join("stored.pt");
     save(&stored, &Scene::TriangleSoup(soup), FileFormat::TorchPt).unwrap();
     let bytes = std::fs::read(&stored).unwrap();

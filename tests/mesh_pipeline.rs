@@ -4,7 +4,7 @@
 
 use assert_cmd::Command;
 use glam::{DMat3, DVec3};
-use splatkit::geom::clean::signed_volume;
+use splatkit::geom::mesh_ops::clean::signed_volume;
 use splatkit::io::ply::{Format, mesh::parse_mesh, points::write_points};
 use splatkit::model::{Camera, PointCloud};
 

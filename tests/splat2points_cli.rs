@@ -5,8 +5,8 @@
 
 use assert_cmd::Command;
 use glam::DVec3;
-use splatkit::geom::orbit::{OrbitRing, orbit_cameras};
-use splatkit::geom::synthetic::Torus;
+use splatkit::geom::scenes::orbit::{OrbitRing, orbit_cameras};
+use splatkit::geom::scenes::synthetic::Torus;
 use splatkit::io::ply::{Format, gaussians::write_gaussians, points::parse_points};
 
 const T: Torus = Torus {
@@ -423,7 +423,7 @@ fn sugar_script_end_to_end() {
 /// within 3 cells of the mesh's vertices (the mesh covers the samples).
 #[test]
 fn real_scenes_become_meshes() {
-    use splatkit::geom::knn::NnIndex;
+    use splatkit::geom::sampling::knn::NnIndex;
     for (name, up) in [("biker", "0,-1,0"), ("guitar", "0,-1,0")] {
         let Some(scene) = splatkit::testing::shared_data(&format!(
             "3dgs-playcanvas-{name}/{name}.decoded_sh0.ply"

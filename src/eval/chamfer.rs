@@ -11,9 +11,9 @@
 use clap::ValueEnum;
 use serde::Serialize;
 
-use crate::geom::knn::NnIndex;
-use crate::geom::sample::{dtu_mesh_points_par, sample_area_uniform_with_faces};
-use crate::geom::stats::DistanceStats;
+use crate::geom::sampling::knn::NnIndex;
+use crate::geom::sampling::sample::{dtu_mesh_points_par, sample_area_uniform_with_faces};
+use crate::geom::sampling::stats::DistanceStats;
 use crate::model::Mesh;
 use crate::{Error, Result};
 

@@ -4,7 +4,7 @@
 //! Steps, all in millimetres:
 //! 1. prediction points: in mesh mode all mesh vertices (unreferenced ones
 //!    too) followed by the DTU up-sampling of every triangle at 0.2 mm
-//!    ([`crate::geom::sample::dtu_mesh_points`]); in point mode the points;
+//!    ([`crate::geom::sampling::sample::dtu_mesh_points`]); in point mode the points;
 //! 2. a seeded shuffle (the reference's is unseeded) and greedy radius
 //!    downsampling at 0.2 mm (a point is kept iff no earlier-kept point lies
 //!    within ≤ 0.2) → `data_down`;
@@ -24,10 +24,10 @@
 use serde::Serialize;
 
 use crate::Result;
-use crate::geom::downsample::{greedy_radius_downsample, seeded_permutation};
-use crate::geom::knn::NnIndex;
-use crate::geom::sample::dtu_mesh_points_par;
-use crate::geom::stats::mean_below;
+use crate::geom::sampling::downsample::{greedy_radius_downsample, seeded_permutation};
+use crate::geom::sampling::knn::NnIndex;
+use crate::geom::sampling::sample::dtu_mesh_points_par;
+use crate::geom::sampling::stats::mean_below;
 use crate::model::ObsMask;
 
 // The lookups of the reference's stage B (`eval.py` steps 5 and 6) on the

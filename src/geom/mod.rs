@@ -1,27 +1,23 @@
-//! Reusable geometry: nearest-neighbour index, surface sampling, point
-//! downsampling, distance statistics, rigid/similarity registration, crop volumes.
+//! Geometry on model types, grouped by job (docs/ARCHITECTURE.md, "New
+//! geometry"). Nothing here reads or writes files.
+//!
+//! - [`meshing`]: surfaces from points or splats (screened Poisson, TSDF
+//!   fusion, marching cubes, SuGaR's foreground/background split, a
+//!   triangle soup as a mesh);
+//! - [`surface_points`]: oriented points from Gaussians (SuGaR's level set
+//!   and its diamond z-buffer, the centre and depth alternatives);
+//! - [`mesh_ops`]: operations on meshes and soups (clean-up, decimation,
+//!   density trimming, triangle pruning, texture baking);
+//! - [`sampling`]: point sets (surface sampling, downsampling, voxel grids,
+//!   nearest neighbours, outlier removal, distance statistics);
+//! - [`binding`]: Gaussians bound to mesh triangles (SuGaR);
+//! - [`alignment`]: registration and crop volumes (Tanks and Temples);
+//! - [`scenes`]: generated scenes and camera orbits (the demo's built-in
+//!   scene, cameras for scenes that come without them).
+pub mod alignment;
 pub mod binding;
-pub mod clean;
-pub mod cleanup;
-pub mod crop;
-pub mod decimate;
-pub mod diamond_zbuffer;
-pub mod downsample;
-pub mod knn;
-pub mod levelset;
-pub mod marching_cubes;
-pub mod orbit;
-pub mod outliers;
-pub mod poisson;
-pub mod prune;
-pub mod registration;
-pub mod sample;
-pub mod scene_split;
-pub mod soup_mesh;
-pub mod splat_points;
-pub mod stats;
-pub mod synthetic;
-pub mod texture_bake;
-pub mod trim;
-pub mod tsdf;
-pub mod voxel;
+pub mod mesh_ops;
+pub mod meshing;
+pub mod sampling;
+pub mod scenes;
+pub mod surface_points;

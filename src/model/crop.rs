@@ -2,7 +2,7 @@
 //! Tanks-and-Temples `<Scene>.json` files (Open3D `SelectionPolygonVolume`).
 //!
 //! This is the data only. Which points a volume contains (Open3D's exact
-//! rule) and cropping a cloud are in [`crate::geom::crop`]; reading and
+//! rule) and cropping a cloud are in [`crate::geom::alignment::crop`]; reading and
 //! writing the JSON form is in [`crate::io::tnt`].
 
 /// The coordinate axis a crop prism extends along (its "orthogonal axis").

@@ -1,5 +1,5 @@
 //! An orbit of cameras around a scene, as the `--orbit` flags describe it;
-//! `geom::orbit` places the cameras.
+//! `geom::scenes::orbit` places the cameras.
 
 use glam::DVec3;
 

@@ -5,8 +5,8 @@
 //! seeded with [`seeded`]. Work split into independently seeded pieces (so
 //! that the result does not depend on the rayon thread count) takes piece `i`
 //! from [`stream`]`(seed, i)`, whose seed is decorrelated from its neighbours'
-//! by the [`splitmix64`] mixer; the per-camera samplers of `geom::levelset`
-//! and `geom::splat_points` use the older [`golden_stream`].
+//! by the [`splitmix64`] mixer; the per-camera samplers of `geom::surface_points::levelset`
+//! and `geom::surface_points::splat_points` use the older [`golden_stream`].
 //!
 //! These are the formulas the results were produced with: changing any of
 //! them changes every seeded output.

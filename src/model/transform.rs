@@ -1,5 +1,5 @@
 //! Similarity transforms `p' = scale·R·p + t`, the plain value that point-set
-//! registration ([`crate::geom::registration`]) estimates and the
+//! registration ([`crate::geom::alignment::registration`]) estimates and the
 //! Tanks-and-Temples evaluation composes.
 //!
 //! As everywhere in splatkit, matrices are glam's (column-major storage,

@@ -1,7 +1,7 @@
 //! `bake-texture`: SuGaR's textured-mesh export (V2 semantics). The colours
 //! of a 3DGS scene (SH DC, black background), rendered from the training
 //! cameras, are averaged into a trivial per-triangle atlas on the mesh
-//! ([`crate::geom::texture_bake`] holds the atlas and the rules); the result
+//! ([`crate::geom::mesh_ops::texture_bake`] holds the atlas and the rules); the result
 //! is an OBJ with its MTL and PNG. This module only resolves files, flags,
 //! progress and the report.
 
@@ -13,7 +13,7 @@ use serde_json::json;
 
 use crate::cli::orbit::{SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, positive_f64, shown, usage};
-use crate::geom::texture_bake::{self, BakeParams, BakeStats, DEFAULT_SQUARE};
+use crate::geom::mesh_ops::texture_bake::{self, BakeParams, BakeStats, DEFAULT_SQUARE};
 use crate::io::any::{MeshWriteOptions, load_gaussians, load_mesh, save_mesh};
 use crate::io::cameras::read_cameras;
 use crate::io::detect::FileFormat;

@@ -25,7 +25,7 @@ use crate::eval::tnt::{
     TntInput, TntParams, TntReport, evaluate_tnt, plot_pr_curves, tnt_threshold,
     vertices_and_face_centroids,
 };
-use crate::geom::sample::dtu_sample_estimate;
+use crate::geom::sampling::sample::dtu_sample_estimate;
 use crate::io::StagedDir;
 use crate::io::any::{load_kinds, load_mesh, load_points};
 use crate::io::cameras::npz::{NpzOptions, read_neus_cameras};

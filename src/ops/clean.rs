@@ -1,4 +1,4 @@
-//! `clean`: mesh clean-up ([`crate::geom::cleanup`]) in the order SuGaR's V2
+//! `clean`: mesh clean-up ([`crate::geom::mesh_ops::cleanup`]) in the order SuGaR's V2
 //! code runs Open3D's (duplicate vertices, degenerate faces, duplicate
 //! faces, non-manifold edges), then unreferenced vertices and the optional
 //! connected-component filters.
@@ -9,8 +9,8 @@ use clap::Args;
 use serde_json::json;
 
 use crate::cli::{Common, shown};
-use crate::geom::clean::ComponentFilter;
-use crate::geom::cleanup::{CleanSteps, clean_mesh};
+use crate::geom::mesh_ops::clean::ComponentFilter;
+use crate::geom::mesh_ops::cleanup::{CleanSteps, clean_mesh};
 use crate::io::any::{MeshWriteOptions, load_mesh, output_format, save_mesh};
 use crate::io::detect::FileFormat;
 
@@ -62,7 +62,7 @@ pub struct CleanArgs {
 
 /// Which step (and flag) removed the last faces of a mesh that `clean` left
 /// empty, for the error message.
-fn empty_cause(r: &crate::geom::cleanup::CleanReport, args: &CleanArgs) -> String {
+fn empty_cause(r: &crate::geom::mesh_ops::cleanup::CleanReport, args: &CleanArgs) -> String {
     if r.faces_before == 0 {
         return "the input has no faces".into();
     }

@@ -1,5 +1,5 @@
 //! `decimate`: quadric-error decimation of a mesh to a stated face or vertex
-//! count ([`crate::geom::decimate`]), in pipes.
+//! count ([`crate::geom::mesh_ops::decimate`]), in pipes.
 
 use std::path::PathBuf;
 
@@ -8,7 +8,7 @@ use clap::Args;
 use serde_json::json;
 
 use crate::cli::{Common, shown};
-use crate::geom::decimate::{Target, decimate};
+use crate::geom::mesh_ops::decimate::{Target, decimate};
 use crate::io::any::{MeshWriteOptions, load_mesh, output_format, save_mesh};
 use crate::io::detect::FileFormat;
 

@@ -14,7 +14,7 @@
 //! face, colours from the scene) are refined against renders of the scene
 //! (`bound.ply`, `refined_bound.ply`; held-out PSNR before and after).
 //!
-//! Part 2, the triangle tools ([`demo_soup`](crate::geom::synthetic::demo_soup)): a torus tiled with solid,
+//! Part 2, the triangle tools ([`demo_soup`](crate::geom::scenes::synthetic::demo_soup)): a torus tiled with solid,
 //! opaque triangles (α = 0.95, σ = 0.5) coloured by angle with SH degree 3,
 //! plus "floaters" — random triangles that are either transparent (α = 0.2)
 //! or soft (σ = 3) — as training leaves them. The run writes the scene as a
@@ -38,14 +38,14 @@ use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 use crate::cli::Common;
 use crate::eval::chamfer::{GenericParams, GenericReport, SampleMode, chamfer_generic, mesh_cloud};
 use crate::geom::binding::{self, BindOptions};
-use crate::geom::clean::ComponentFilter;
-use crate::geom::cleanup::{CleanSteps, clean_mesh};
-use crate::geom::levelset::{LevelsetOptions, sample_levelset, to_point_cloud};
-use crate::geom::orbit::{OrbitRing, orbit_cameras};
-use crate::geom::poisson::pipeline::{PipelineOptions, run_pipeline};
-use crate::geom::prune::{PruneParams, PruneReport, prune};
-use crate::geom::soup_mesh::{ExportParams, soup_to_mesh};
-use crate::geom::synthetic::{Torus, demo_soup};
+use crate::geom::mesh_ops::clean::ComponentFilter;
+use crate::geom::mesh_ops::cleanup::{CleanSteps, clean_mesh};
+use crate::geom::mesh_ops::prune::{PruneParams, PruneReport, prune};
+use crate::geom::meshing::poisson::pipeline::{PipelineOptions, run_pipeline};
+use crate::geom::meshing::soup_mesh::{ExportParams, soup_to_mesh};
+use crate::geom::scenes::orbit::{OrbitRing, orbit_cameras};
+use crate::geom::scenes::synthetic::{Torus, demo_soup};
+use crate::geom::surface_points::levelset::{LevelsetOptions, sample_levelset, to_point_cloud};
 use crate::io::cameras::write_gs_json;
 use crate::io::describe::{FileInfo, describe, render_text};
 use crate::io::gltf::{GltfWriteOptions, write_gltf};
@@ -379,9 +379,9 @@ fn bind_stage(
     rows: &mut Vec<StageRow>,
 ) -> anyhow::Result<(BoundGaussians, f64)> {
     let t = Instant::now();
-    let (mesh, _) = crate::geom::decimate::decimate(
+    let (mesh, _) = crate::geom::mesh_ops::decimate::decimate(
         mesh,
-        crate::geom::decimate::Target::Faces(args.bind_faces),
+        crate::geom::mesh_ops::decimate::Target::Faces(args.bind_faces),
     )?;
     let centres: Vec<[f64; 3]> = scene.cams.iter().map(|c| c.center().to_array()).collect();
     let extent = crate::model::rig::nerfpp_radius(&centres).unwrap_or(1.0);

@@ -1,7 +1,7 @@
 //! `export-off`: a triangle soup (or mesh) to OFF for game engines, exactly as
 //! Triangle Splatting's `create_off.py` writes it, or to GLB / glTF / PLY / OBJ.
 //! The soup-to-mesh conversion (colours, vertex merging) is
-//! [`crate::geom::soup_mesh`]; mesh inputs are written with whatever colours
+//! [`crate::geom::meshing::soup_mesh`]; mesh inputs are written with whatever colours
 //! they have.
 
 use std::path::PathBuf;
@@ -11,7 +11,7 @@ use clap::Args;
 use serde_json::json;
 
 use crate::cli::{Common, shown};
-use crate::geom::soup_mesh::{ExportParams, soup_to_mesh};
+use crate::geom::meshing::soup_mesh::{ExportParams, soup_to_mesh};
 use crate::io::any::{MeshWriteOptions, open, output_format, save_mesh};
 use crate::io::detect::FileFormat;
 use crate::io::off::OffWriteOptions;

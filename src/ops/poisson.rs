@@ -1,9 +1,9 @@
 //! `poisson`: oriented points → watertight mesh by screened Poisson
-//! reconstruction ([`crate::geom::poisson`]), with SuGaR's pre- and
+//! reconstruction ([`crate::geom::meshing::poisson`]), with SuGaR's pre- and
 //! post-processing around it.
 //!
 //! The pipeline (outliers, split, per-part reconstruction, trimming) is
-//! [`crate::geom::poisson::pipeline`]; this module resolves files and flags.
+//! [`crate::geom::meshing::poisson::pipeline`]; this module resolves files and flags.
 
 use std::path::PathBuf;
 
@@ -12,9 +12,11 @@ use clap::Args;
 use serde_json::json;
 
 use crate::cli::{Common, fraction_f64, nonneg_f64, positive_f64, shown};
-use crate::geom::poisson::pipeline::{PipelineOptions, PipelineOutput, run_pipeline_with_progress};
-use crate::geom::poisson::{PoissonParams, STAGES};
-use crate::geom::scene_split::{Aabb, SceneSplit};
+use crate::geom::meshing::poisson::pipeline::{
+    PipelineOptions, PipelineOutput, run_pipeline_with_progress,
+};
+use crate::geom::meshing::poisson::{PoissonParams, STAGES};
+use crate::geom::meshing::scene_split::{Aabb, SceneSplit};
 use crate::io::any::{MeshWriteOptions, load_points, save_mesh};
 use crate::io::detect::FileFormat;
 

@@ -1,5 +1,5 @@
 //! `prune-triangles`: keep the solid, opaque triangles of a triangle-splat
-//! soup. The criteria and their order are those of [`crate::geom::prune`].
+//! soup. The criteria and their order are those of [`crate::geom::mesh_ops::prune`].
 
 use std::path::PathBuf;
 
@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::cli::{Common, shown};
-use crate::geom::prune::{PruneParams, prune};
+use crate::geom::mesh_ops::prune::{PruneParams, prune};
 use crate::io::any::{load_soup, output_format, save_soup};
 use crate::io::detect::FileFormat;
 
@@ -96,7 +96,11 @@ impl PruneTrianglesArgs {
 
 /// Why `prune` kept nothing, naming the flags that removed triangles
 /// (`game_engine`: whether `--game-engine` supplied the default thresholds).
-fn empty_cause(r: &crate::geom::prune::PruneReport, p: &PruneParams, game_engine: bool) -> String {
+fn empty_cause(
+    r: &crate::geom::mesh_ops::prune::PruneReport,
+    p: &PruneParams,
+    game_engine: bool,
+) -> String {
     if r.total == 0 {
         return "the input holds no triangles".into();
     }

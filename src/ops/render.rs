@@ -22,7 +22,7 @@ use splatkit_render::{mesh as zbuffer, triangle};
 
 use crate::cli::orbit::{OrbitArgs, SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, nonneg_f64, positive_f64, shown, usage};
-use crate::geom::orbit::orbit_rings;
+use crate::geom::scenes::orbit::orbit_rings;
 use crate::io::StagedDir;
 use crate::io::cameras::npz::encode_npy_f32;
 use crate::io::cameras::read_cameras;

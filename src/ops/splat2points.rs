@@ -1,6 +1,6 @@
 //! `splat2points`: a 3DGS scene to an oriented, coloured point cloud for
-//! `poisson` — SuGaR's level-set sampling ([`crate::geom::levelset`]) or the
-//! quick `centers` / `depth` methods ([`crate::geom::splat_points`]).
+//! `poisson` — SuGaR's level-set sampling ([`crate::geom::surface_points::levelset`]) or the
+//! quick `centers` / `depth` methods ([`crate::geom::surface_points::splat_points`]).
 
 use std::path::{Path, PathBuf};
 
@@ -10,9 +10,9 @@ use serde_json::json;
 
 use crate::cli::orbit::{OrbitArgs, SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, fraction_f32, nonneg_f64, shown, usage};
-use crate::geom::levelset::{DepthSource, LevelsetOptions, to_point_cloud};
-use crate::geom::orbit::orbit_rings;
-use crate::geom::splat_points::{PointMethod, splat_to_points};
+use crate::geom::scenes::orbit::orbit_rings;
+use crate::geom::surface_points::levelset::{DepthSource, LevelsetOptions, to_point_cloud};
+use crate::geom::surface_points::splat_points::{PointMethod, splat_to_points};
 use crate::io::any::{load_gaussians, save_points};
 use crate::io::cameras::read_cameras;
 use crate::io::ply::Format;

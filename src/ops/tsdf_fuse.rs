@@ -1,10 +1,10 @@
 //! `tsdf-fuse`: depth maps fused into a coloured mesh as 2DGS and Triangle
-//! Splatting mesh their scenes ([`crate::geom::tsdf`]: Open3D's
+//! Splatting mesh their scenes ([`crate::geom::meshing::tsdf`]: Open3D's
 //! ScalableTSDFVolume and marching cubes, 2DGS's settings and cluster
 //! filter).
 //!
 //! The depth maps are rendered here from a scene (Gaussians, triangle splats
-//! or a mesh; [`crate::geom::tsdf::views`]) or read from files
+//! or a mesh; [`crate::geom::meshing::tsdf::views`]) or read from files
 //! ([`crate::io::depth`]), one per camera, matched by image name. This module
 //! only resolves files, flags and progress.
 
@@ -16,7 +16,7 @@ use serde_json::json;
 
 use crate::cli::orbit::{SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, positive_f64, shown, unit_f64, usage};
-use crate::geom::tsdf::{
+use crate::geom::meshing::tsdf::{
     BATCH, BlockBounds, BoundedInput, ClusterReport, FuseError, FuseProgress, FusionScene,
     TsdfParams, TsdfVolume, UnboundedInput, ViewMaps, auto_params, camera_sphere, fuse_views,
     fuse_views_unbounded, keep_largest_clusters, render_view,
@@ -201,7 +201,7 @@ pub fn fuse_image_bytes(cams: &[Camera], unbounded: bool) -> u64 {
         image_bytes(
             cams,
             RENDER_BYTES_PER_PIXEL,
-            crate::geom::tsdf::unbounded::VIEW_BYTES_PER_PIXEL,
+            crate::geom::meshing::tsdf::unbounded::VIEW_BYTES_PER_PIXEL,
         )
     } else {
         image_bytes(
@@ -369,9 +369,9 @@ fn plan(args: &TsdfFuseArgs, cams: &[Camera]) -> anyhow::Result<(TsdfParams, Str
         &format!(
             "--unbounded --mesh-res {}: the contracted grid ({} samples per axis) beside the depth maps",
             args.mesh_res,
-            crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res)
+            crate::geom::meshing::tsdf::unbounded::samples_per_axis(args.mesh_res)
         ),
-        crate::geom::tsdf::unbounded::grid_bytes(args.mesh_res).saturating_add(image_bytes),
+        crate::geom::meshing::tsdf::unbounded::grid_bytes(args.mesh_res).saturating_add(image_bytes),
     )
     .map_err(|e| usage(e.to_string()))?;
     let p = TsdfParams::new(1.0, 1.0, 1.0);
@@ -479,7 +479,7 @@ fn fuse_unbounded(
         "radius": out.radius,
         "bound": out.bound,
         "resolution": args.mesh_res,
-        "samples_per_axis": crate::geom::tsdf::unbounded::samples_per_axis(args.mesh_res),
+        "samples_per_axis": crate::geom::meshing::tsdf::unbounded::samples_per_axis(args.mesh_res),
     });
     Ok(Fused {
         mesh: out.mesh,

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use super::common::{cameras_file, fails, mesh_file, run, s, snapshot, succeeds};
 
 use glam::{DMat3, DVec3};
-use splatkit::geom::synthetic::Torus;
+use splatkit::geom::scenes::synthetic::Torus;
 use splatkit::io::cameras::write_gs_json;
 use splatkit::io::ply::{Format, gaussians::write_gaussians};
 use splatkit::model::Camera;

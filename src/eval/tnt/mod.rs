@@ -12,12 +12,12 @@
 use glam::DMat4;
 use serde::{Serialize, Serializer};
 
-use crate::geom::crop::Crop;
-use crate::geom::knn::NnIndex;
-use crate::geom::registration::{
+use crate::geom::alignment::crop::Crop;
+use crate::geom::alignment::registration::{
     IcpParams, RansacParams, icp_point_to_point, ransac_on_correspondences, transform_points,
 };
-use crate::geom::voxel::{uniform_down_sample, voxel_down_sample};
+use crate::geom::sampling::knn::NnIndex;
+use crate::geom::sampling::voxel::{uniform_down_sample, voxel_down_sample};
 use crate::model::CropVolume;
 use crate::{Error, Result};
 

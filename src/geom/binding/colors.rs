@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use crate::geom::knn::NnIndex;
+use crate::geom::sampling::knn::NnIndex;
 use crate::model::Gaussians;
 use crate::{Error, Result};
 

@@ -9,7 +9,7 @@
 
 use rand::RngExt;
 
-use crate::geom::knn::mean_sq_dist_3nn;
+use crate::geom::sampling::knn::mean_sq_dist_3nn;
 use crate::model::gaussians::logit;
 use crate::model::rng::Rng;
 use crate::model::{Gaussians, PointCloud};

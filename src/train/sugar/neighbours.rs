@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 
 use crate::Result;
-use crate::geom::knn::NnIndex;
+use crate::geom::sampling::knn::NnIndex;
 
 /// SuGaR's neighbour count.
 pub const SUGAR_K: usize = 16;
@@ -20,7 +20,7 @@ pub struct Neighbours {
 }
 
 impl Neighbours {
-    /// Builds the table over `means` with `geom::knn` (SuGaR: k = [`SUGAR_K`];
+    /// Builds the table over `means` with `geom::sampling::knn` (SuGaR: k = [`SUGAR_K`];
     /// the caller rebuilds it every 500 iterations as the centres move).
     /// Errors on a non-finite mean.
     pub fn build(means: &[[f32; 3]], k: usize) -> Result<Self> {

@@ -18,7 +18,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
-use crate::geom::knn::mean_sq_dist_3nn;
+use crate::geom::sampling::knn::mean_sq_dist_3nn;
 use crate::model::gaussians::logit;
 use crate::model::rng::{Rng, normal};
 use crate::model::{PointCloud, TriangleSoup};

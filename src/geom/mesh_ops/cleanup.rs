@@ -1,12 +1,12 @@
 //! The clean-up sequence of `clean` as one call on a mesh: the steps of
-//! [`crate::geom::clean`] in the order SuGaR's V2 code runs Open3D's
+//! [`crate::geom::mesh_ops::clean`] in the order SuGaR's V2 code runs Open3D's
 //! (duplicate vertices, degenerate faces, duplicate faces, non-manifold
 //! edges), then the optional connected-component filters and unreferenced
 //! vertices, with a count of what each step removed.
 
 use serde::Serialize;
 
-use crate::geom::clean::{
+use crate::geom::mesh_ops::clean::{
     ComponentFilter, filter_components, merge_duplicate_vertices, remove_degenerate_faces,
     remove_duplicate_faces, remove_non_manifold_edges, remove_unreferenced_vertices,
 };

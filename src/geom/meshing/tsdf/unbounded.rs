@@ -49,7 +49,7 @@ use glam::{DMat4, DVec3, DVec4};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
-use crate::geom::marching_cubes::{edge_corners, table, triangulate};
+use crate::geom::meshing::marching_cubes::{edge_corners, table, triangulate};
 use crate::model::{Camera, Mesh};
 use crate::{Error, Result};
 

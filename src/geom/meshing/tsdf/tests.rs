@@ -5,7 +5,7 @@
 use glam::{DMat3, DVec3};
 
 use super::*;
-use crate::geom::clean::signed_volume;
+use crate::geom::mesh_ops::clean::signed_volume;
 use crate::model::{Camera, Mesh};
 
 /// A camera at `centre` with identity rotation (looking down +z).

@@ -29,7 +29,7 @@ use rustc_hash::{FxHashMap, FxHashSet};
 use super::extract::{ExtractParams, IsoMesh, edge_root};
 use super::grid::BitGrid;
 use super::system::{Level, eval};
-use crate::geom::marching_cubes::triangulate;
+use crate::geom::meshing::marching_cubes::triangulate;
 
 /// A point of the finest grid (depth D coordinates).
 type Node = [i32; 3];

@@ -1,5 +1,5 @@
 //! The reconstruction pipeline of `poisson` on a point cloud, with SuGaR's
-//! pre- and post-processing around [`crate::geom::poisson`]:
+//! pre- and post-processing around [`crate::geom::meshing::poisson`]:
 //! drop bad points → optional normal flip → optional statistical outlier
 //! removal → optional foreground / background split (cameras or box) → one
 //! reconstruction per part (depth fixed, from the width, or automatic) →
@@ -7,10 +7,12 @@
 
 use serde::Serialize;
 
-use crate::geom::outliers::statistical_outliers;
-use crate::geom::poisson::{PoissonOutput, PoissonParams, PoissonStats, reconstruct_with_progress};
-use crate::geom::scene_split::{Part, SceneSplit, auto_depth};
-use crate::geom::trim::{trim_quantile_weighted, trim_threshold};
+use crate::geom::mesh_ops::trim::{trim_quantile_weighted, trim_threshold};
+use crate::geom::meshing::poisson::{
+    PoissonOutput, PoissonParams, PoissonStats, reconstruct_with_progress,
+};
+use crate::geom::meshing::scene_split::{Part, SceneSplit, auto_depth};
+use crate::geom::sampling::outliers::statistical_outliers;
 use crate::model::{Mesh, PointCloud};
 
 /// Options of the whole pipeline (everything but file names).
@@ -258,8 +260,8 @@ mod tests {
     fn far_area(m: &Mesh, dist: impl Fn([f64; 3]) -> f64, tol: f64) -> (f64, f64) {
         let (mut far, mut total) = (0.0, 0.0);
         for f in &m.faces {
-            let [a, b, c] = crate::geom::clean::face_corners(m, f);
-            let area = crate::geom::clean::face_area(m, f);
+            let [a, b, c] = crate::geom::mesh_ops::clean::face_corners(m, f);
+            let area = crate::geom::mesh_ops::clean::face_area(m, f);
             let g = [
                 (a[0] + b[0] + c[0]) / 3.0,
                 (a[1] + b[1] + c[1]) / 3.0,

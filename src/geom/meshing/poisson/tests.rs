@@ -155,7 +155,7 @@ pub(crate) fn topology(m: &Mesh) -> (bool, bool, usize) {
 }
 
 /// Signed volume (positive for outward-oriented closed meshes).
-pub(crate) use crate::geom::clean::signed_volume;
+pub(crate) use crate::geom::mesh_ops::clean::signed_volume;
 
 fn distances_in_cells(out: &PoissonOutput, shape: &Shape) -> (f64, f64) {
     let cell = out.stats.cell_size;

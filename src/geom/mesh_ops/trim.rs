@@ -15,7 +15,7 @@
 
 use rustc_hash::FxHashMap;
 
-use crate::geom::clean::{filter_faces, remove_unreferenced_vertices};
+use crate::geom::mesh_ops::clean::{filter_faces, remove_unreferenced_vertices};
 use crate::model::Mesh;
 use crate::{Error, Result};
 

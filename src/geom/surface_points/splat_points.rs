@@ -16,15 +16,17 @@
 //!   ⌊max/N⌋ + 1 points per view.
 //!
 //! [`splat_to_points`] runs the method `splat2points` picks: one of these
-//! or SuGaR's level-set sampling ([`crate::geom::levelset`]).
+//! or SuGaR's level-set sampling ([`crate::geom::surface_points::levelset`]).
 
 use rand::RngExt;
 use rayon::prelude::*;
 use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
 use splatkit_render::sh::sh_to_rgb;
 
-use crate::geom::diamond_zbuffer::diamond_zbuffer;
-use crate::geom::levelset::{LevelPoints, LevelsetOptions, opaque_dc_subset, sample_levelset};
+use crate::geom::surface_points::diamond_zbuffer::diamond_zbuffer;
+use crate::geom::surface_points::levelset::{
+    LevelPoints, LevelsetOptions, opaque_dc_subset, sample_levelset,
+};
 use crate::model::Camera;
 use crate::model::rig::back_project;
 use crate::model::rng;

@@ -13,7 +13,7 @@ use glam::{DMat3, DMat4, DVec3};
 use rand::RngExt;
 use rayon::prelude::*;
 
-use crate::geom::knn::NnIndex;
+use crate::geom::sampling::knn::NnIndex;
 use crate::model::Similarity;
 use crate::model::rng;
 use crate::{Error, Result};

@@ -8,7 +8,7 @@
 //! the finest level that holds the point (exact: the accumulated solution is
 //! trilinear inside every cell of a level).
 //!
-//! Polygons come from the shared table of [`crate::geom::marching_cubes`]
+//! Polygons come from the shared table of [`crate::geom::meshing::marching_cubes`]
 //! with inside = χ > iso, so loops face decreasing χ (outward: χ ≈ 1
 //! inside); loops of more than three vertices get a minimum-area
 //! triangulation.
@@ -19,7 +19,7 @@
 use rayon::prelude::*;
 use rustc_hash::{FxHashMap, FxHashSet};
 
-use crate::geom::marching_cubes::{edge_corners, table, triangulate};
+use crate::geom::meshing::marching_cubes::{edge_corners, table, triangulate};
 
 use super::grid::{BS, morton};
 use super::system::Level;

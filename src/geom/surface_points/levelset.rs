@@ -38,8 +38,8 @@ use rand::RngExt;
 use rayon::prelude::*;
 use splatkit_render::gaussian::{self, Gaussians3, RasterSettings, RenderOutput};
 
-use crate::geom::diamond_zbuffer::{diamond_zbuffer, frame};
-use crate::geom::knn::NnIndex;
+use crate::geom::sampling::knn::NnIndex;
+use crate::geom::surface_points::diamond_zbuffer::{diamond_zbuffer, frame};
 use crate::model::rng;
 use crate::model::{Camera, Column, PointCloud, Property, ScalarData, rig};
 use crate::{Error, Result};
@@ -782,9 +782,9 @@ mod tests {
             g.opacities.push(0.95);
             g.sh.push([0.5, 0.2, 0.1]);
         }
-        let cams = crate::geom::orbit::orbit_cameras(
+        let cams = crate::geom::scenes::orbit::orbit_cameras(
             &g.means,
-            &crate::geom::orbit::OrbitRing {
+            &crate::geom::scenes::orbit::OrbitRing {
                 views: 6,
                 width: 128,
                 height: 128,

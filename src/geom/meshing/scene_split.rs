@@ -164,7 +164,10 @@ pub fn auto_depth(points: &[[f64; 3]]) -> Result<u32> {
         })
         .collect();
     d2.sort_unstable_by(f64::total_cmp);
-    let q = crate::geom::trim::quantile(&d2.iter().map(|&x| x as f32).collect::<Vec<_>>(), 0.1);
+    let q = crate::geom::mesh_ops::trim::quantile(
+        &d2.iter().map(|&x| x as f32).collect::<Vec<_>>(),
+        0.1,
+    );
     if q.is_nan() || q <= 0.0 {
         return Ok(10);
     }

@@ -110,7 +110,7 @@ pub fn table() -> &'static Vec<Vec<Vec<u8>>> {
 }
 
 fn tri_area(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]) -> f64 {
-    let x = crate::geom::clean::triangle_cross(*a, *b, *c);
+    let x = crate::geom::mesh_ops::clean::triangle_cross(*a, *b, *c);
     (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
 }
 

@@ -14,7 +14,7 @@
 //!   side: their normals point out of the surface, toward the cameras.
 //!
 //! Departures, both on purpose: the polygons come from the shared
-//! [`crate::geom::marching_cubes`] table, which is crack-free where Open3D's
+//! [`crate::geom::meshing::marching_cubes`] table, which is crack-free where Open3D's
 //! Lorensen/Bourke table is not (on ambiguous faces only; the vertex set is
 //! the same, see that module); and vertices are numbered in sorted order of
 //! (voxel x, y, z, axis) of their edge, triangles in sorted order of block
@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::volume::{TsdfVolume, UNIT};
-use crate::geom::marching_cubes::{edge_corners, table, triangulate};
+use crate::geom::meshing::marching_cubes::{edge_corners, table, triangulate};
 use crate::model::Mesh;
 
 /// Padded block side: the block's 16 voxels plus one from the + neighbour.

@@ -9,7 +9,7 @@
 //! k larger than the number of components is clamped instead of failing, and
 //! an empty mesh stays empty.
 
-use crate::geom::clean::{face_components, filter_faces, remove_unreferenced_vertices};
+use crate::geom::mesh_ops::clean::{face_components, filter_faces, remove_unreferenced_vertices};
 use crate::model::Mesh;
 
 /// What [`keep_largest_clusters`] did.

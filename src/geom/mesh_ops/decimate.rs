@@ -12,7 +12,7 @@
 //! identity is kept; only positions move); normals, when present, are
 //! recomputed from the faces (area-weighted).
 
-use crate::geom::clean::{remove_unreferenced_vertices, vertex_normals};
+use crate::geom::mesh_ops::clean::{remove_unreferenced_vertices, vertex_normals};
 use crate::model::Mesh;
 use crate::{Error, Result};
 
@@ -131,7 +131,7 @@ mod tests {
                 *e.entry((f[k], f[(k + 1) % 3])).or_default() += 1;
             }
         }
-        let vol = crate::geom::clean::signed_volume(m);
+        let vol = crate::geom::mesh_ops::clean::signed_volume(m);
         let closed = e
             .iter()
             .all(|(&(a, b), &c)| c == 1 && e.get(&(b, a)) == Some(&1));

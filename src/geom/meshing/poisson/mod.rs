@@ -345,7 +345,7 @@ pub fn reconstruct_with_progress(
     let mut mesh = Mesh::new(vertices, iso_mesh.triangles);
     mesh.normals = Some(match normals {
         Some(n) => n,
-        None => crate::geom::clean::vertex_normals(&mesh),
+        None => crate::geom::mesh_ops::clean::vertex_normals(&mesh),
     });
     mesh.vertex_colors = colors;
     mesh.vertex_scalars.push(("density".to_string(), dens));

@@ -202,7 +202,7 @@ mod tests {
             assert!((t.distance((p + n * 0.01).to_array()) - 0.01).abs() < 1e-12);
         }
         let m = t.mesh(40, 20);
-        assert!(crate::geom::clean::signed_volume(&m) > 0.0);
+        assert!(crate::geom::mesh_ops::clean::signed_volume(&m) > 0.0);
         let g = t.gaussians(40, 20, 0.005, 5, 1);
         assert_eq!(g.len(), 805);
         g.validate().unwrap();
