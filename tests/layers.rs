@@ -13,7 +13,8 @@
 //!   live in the layers below.
 //! - A `super::…` path counts like the `crate::…` path it resolves to. The
 //!   module path of a file comes from its place under `src/`
-//!   (`src/geom/meshing/poisson/density.rs` is `crate::geom::meshing::poisson::density`, a
+//!   (`src/geom/meshing/poisson/density.rs` is
+//!   `crate::geom::meshing::poisson::density`, a
 //!   `mod.rs` names its folder) plus the inline `mod name { … }` blocks
 //!   around the path, so `use super::*;` in `#[cfg(test)] mod tests { … }`
 //!   is the file's own module. A chain that climbs above the crate root is
@@ -689,7 +690,8 @@ fn is_visibility(s: &str) -> bool {
 
 /// The crate a file under `src/` is compiled into (`lib`, or `bin/NAME`)
 /// and its module path in that crate: `geom/meshing/poisson/density.rs` is
-/// `[geom, poisson, density]`, `geom/meshing/poisson/mod.rs` is `[geom, poisson]`,
+/// `[geom, meshing, poisson, density]`, `geom/meshing/poisson/mod.rs` is
+/// `[geom, meshing, poisson]`,
 /// `bin/info.rs` is the root of the binary `info`.
 fn module_of(rel: &Path) -> (String, Vec<String>) {
     let parts: Vec<String> = rel
@@ -1035,14 +1037,14 @@ fn checker_catches_wrong_imports() {
         ),
         (
             "eval/dtu.rs",
-            "use crate::geom::sampling::knn::NnIndex;\nuse crate::{\n    io::dtu::ObsMask,\n    model::Mesh,\n};\n",
+            "use crate::geom::knn::NnIndex;\nuse crate::{\n    io::dtu::ObsMask,\n    model::Mesh,\n};\n",
         ),
         (
             "ops/splat2points.rs",
             "use crate::ops::render::OrbitArgs;\nuse crate::ops::splat2points::x;\nuse crate::cli::Common;\n",
         ),
         (
-            "geom/surface_points/levelset.rs",
+            "geom/levelset.rs",
             "#[cfg(test)]\nmod t { fn f() { crate::ops::render::orbit(); } }\n",
         ),
         (
@@ -1060,7 +1062,7 @@ fn checker_catches_wrong_imports() {
             "src/io/any.rs:5: `crate::cli::shown`: layer `io` may not import `cli`",
             "src/eval/dtu.rs:2: `crate::io::dtu`: layer `eval` may not import `io`",
             "src/ops/splat2points.rs:1: `crate::ops::render`: op `splat2points` reaches into op `render`",
-            "src/geom/surface_points/levelset.rs:2: `crate::ops::render`: layer `geom` may not import `ops`",
+            "src/geom/levelset.rs:2: `crate::ops::render`: layer `geom` may not import `ops`",
             "src/model/mesh.rs:1: `crate::geom::x`: layer `model` may not import `geom`",
             // Shipping code of model/mesh.rs: test support is not open to it.
             "src/model/mesh.rs:2: `crate::testing::shared_data`: `crate::testing` is test support",
@@ -1136,10 +1138,7 @@ fn checker_resolves_super_paths() {
             "eval/tnt/plot.rs",
             "#[cfg(test)]\nmod tests {\n    use super::*;\n    use super::super::super::super::io::x;\n}\n",
         ),
-        (
-            "cli/mod.rs",
-            "use super::{model::Mesh, geom::sampling::knn};\n",
-        ),
+        ("cli/mod.rs", "use super::{model::Mesh, geom::knn};\n"),
     ]);
     assert_findings(
         &bad,
@@ -1151,7 +1150,7 @@ fn checker_resolves_super_paths() {
             "src/ops/chamfer/core.rs:2: `super::super::clean::run` = `crate::ops::clean`: op `chamfer` reaches into op `clean`",
             // Inside `mod tests`, four levels up from eval::tnt::plot::tests.
             "src/eval/tnt/plot.rs:4: `super::super::super::super::io::x` = `crate::io::x`: layer `eval` may not import `io`",
-            "src/cli/mod.rs:1: `super::geom::sampling::knn` = `crate::geom::sampling::knn`: layer `cli` may not import `geom`",
+            "src/cli/mod.rs:1: `super::geom::knn` = `crate::geom::knn`: layer `cli` may not import `geom`",
         ],
     );
     let good = check_tree(&[
@@ -1175,7 +1174,7 @@ fn checker_resolves_super_paths() {
             "pub mod chamfer;\n#[cfg(test)]\nmod tests { use super::*; use super::chamfer::x; }\n",
         ),
         (
-            "geom/meshing/poisson/density.rs",
+            "geom/poisson/density.rs",
             "use super::super::super::model::Mesh;\n",
         ),
     ]);
@@ -1279,11 +1278,11 @@ fn paths_and_module_paths() {
     let m = |p: &str| module_of(Path::new(p));
     let v = |s: &[&str]| s.iter().map(|x| x.to_string()).collect::<Vec<_>>();
     assert_eq!(
-        m("geom/meshing/poisson/density.rs"),
+        m("geom/poisson/density.rs"),
         ("lib".into(), v(&["geom", "poisson", "density"]))
     );
     assert_eq!(
-        m("geom/meshing/poisson/mod.rs"),
+        m("geom/poisson/mod.rs"),
         ("lib".into(), v(&["geom", "poisson"]))
     );
     assert_eq!(m("lib.rs"), ("lib".into(), v(&[])));
