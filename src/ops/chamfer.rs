@@ -17,7 +17,8 @@ use serde_json::json;
 
 use crate::cli::{Common, check_output_file, positive_f64, shown, usage};
 use crate::eval::chamfer::{
-    Cloud, GenericParams, SampleMode, chamfer_generic, drop_non_finite, f64_points, mesh_cloud,
+    Cloud, GenericParams, GenericReport, SampleMode, chamfer_generic, drop_non_finite, f64_points,
+    mesh_cloud,
 };
 use crate::eval::cull::{CullView, DILATION_RADIUS, dilate_disk};
 use crate::eval::dtu::{DtuParams, DtuPrediction, DtuReport, evaluate_dtu, vis_color};
@@ -249,8 +250,23 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
         max_dist: args.max_dist,
         seed: args.seed,
     };
+    let (pred, gt, dropped) = load_generic_clouds(args, pred_path, gt_path, &params)?;
+    let report = chamfer_generic(&pred, &gt, &params)?;
+    report_generic(args, &report, [pred_path, gt_path], dropped, &params)
+}
+
+/// The prediction and ground-truth points of generic mode (meshes
+/// sampled by `params`; the ground truth with another seed), without
+/// their non-finite points, whose counts come third. An error when either
+/// has no point left.
+fn load_generic_clouds(
+    args: &ChamferArgs,
+    pred_path: &Path,
+    gt_path: &Path,
+    params: &GenericParams,
+) -> anyhow::Result<(Cloud, Cloud, [usize; 2])> {
     let max_samples = args.max_samples.unwrap_or_else(default_max_samples);
-    let mut pred = load_cloud(pred_path, &params, "prediction", max_samples)?;
+    let mut pred = load_cloud(pred_path, params, "prediction", max_samples)?;
     // A different seed for the GT's samples, so two copies of one mesh are
     // not sampled at identical points.
     let gt_params = GenericParams {
@@ -276,7 +292,19 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
             .into());
         }
     }
-    let report = chamfer_generic(&pred, &gt, &params)?;
+    Ok((pred, gt, dropped))
+}
+
+/// The human summary (stderr) and the JSON report of generic mode:
+/// `paths` are the prediction and the ground truth, `dropped` their
+/// non-finite points.
+fn report_generic(
+    args: &ChamferArgs,
+    report: &GenericReport,
+    paths: [&Path; 2],
+    dropped: [usize; 2],
+    params: &GenericParams,
+) -> anyhow::Result<()> {
     args.common.say(format!(
         "chamfer: accuracy {:.6} completeness {:.6} chamfer-L1 {:.6} ({} vs {} points{})",
         report.accuracy.mean,
@@ -299,11 +327,11 @@ fn run_generic(args: &ChamferArgs) -> anyhow::Result<()> {
             f.tau, f.precision, f.recall, f.fscore
         ));
     }
-    let mut v = serde_json::to_value(&report)?;
-    v["pred"] = shown(pred_path, false).into();
-    v["gt"] = shown(gt_path, false).into();
+    let mut v = serde_json::to_value(report)?;
+    v["pred"] = shown(paths[0], false).into();
+    v["gt"] = shown(paths[1], false).into();
     v["non_finite_dropped"] = json!(dropped);
-    v["params"] = serde_json::to_value(&params)?;
+    v["params"] = serde_json::to_value(params)?;
     args.common.emit_json(&v)
 }
 
@@ -336,36 +364,11 @@ pub struct DtuRun {
 pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun> {
     let ds = crate::io::dtu::DtuOfficial::new(f.dataset_dir);
     ds.check(f.scan)?;
-    let (vertices, faces, culled) = if f.pcd {
-        if f.cull.is_some() {
-            bail!("--cull applies to meshes; it cannot be combined with --pcd");
-        }
-        let pc = load_cloud(
-            f.pred,
-            &GenericParams::vertices(),
-            "prediction",
-            f.max_samples,
-        )?;
-        (pc.points, Vec::new(), None)
-    } else {
-        let m = load_mesh(f.pred, "chamfer").map_err(|e| e.in_role("prediction"))?;
-        let verts = f64_points(&m.vertices);
-        check_samples(
-            "prediction",
-            f.pred,
-            dtu_sample_estimate(&verts, &m.faces, params.density),
-            f.max_samples,
-            "the DTU up-sampling",
-        )?;
-        if let Some((cams, masks)) = f.cull {
-            let (views, scale_mat) = load_cull_views(cams, masks)?;
-            let (v, fc, removed) =
-                crate::eval::cull::cull_mesh(&verts, &m.faces, &views, &scale_mat);
-            (v, fc, Some(removed))
-        } else {
-            (verts, m.faces.clone(), None)
-        }
-    };
+    let DtuPred {
+        vertices,
+        faces,
+        culled,
+    } = load_dtu_prediction(f, params)?;
     if vertices.is_empty() {
         bail!(
             "prediction {}: has no points to evaluate",
@@ -411,6 +414,55 @@ pub fn dtu_from_files(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuRun
         report,
         culled,
         stl,
+    })
+}
+
+/// A DTU prediction as read: its points (f64, the file's units), its
+/// faces (none for `--pcd`) and, with `--cull`, the count of vertices the
+/// masks removed.
+struct DtuPred {
+    vertices: Vec<[f64; 3]>,
+    faces: Vec<[u32; 3]>,
+    culled: Option<usize>,
+}
+
+/// Reads the DTU prediction, culled by the masks with `--cull`; a mesh's
+/// up-sampling estimate is checked against `--max-samples` first.
+fn load_dtu_prediction(f: &DtuFiles, params: &DtuParams) -> anyhow::Result<DtuPred> {
+    let (vertices, faces, culled) = if f.pcd {
+        if f.cull.is_some() {
+            bail!("--cull applies to meshes; it cannot be combined with --pcd");
+        }
+        let pc = load_cloud(
+            f.pred,
+            &GenericParams::vertices(),
+            "prediction",
+            f.max_samples,
+        )?;
+        (pc.points, Vec::new(), None)
+    } else {
+        let m = load_mesh(f.pred, "chamfer").map_err(|e| e.in_role("prediction"))?;
+        let verts = f64_points(&m.vertices);
+        check_samples(
+            "prediction",
+            f.pred,
+            dtu_sample_estimate(&verts, &m.faces, params.density),
+            f.max_samples,
+            "the DTU up-sampling",
+        )?;
+        if let Some((cams, masks)) = f.cull {
+            let (views, scale_mat) = load_cull_views(cams, masks)?;
+            let (v, fc, removed) =
+                crate::eval::cull::cull_mesh(&verts, &m.faces, &views, &scale_mat);
+            (v, fc, Some(removed))
+        } else {
+            (verts, m.faces.clone(), None)
+        }
+    };
+    Ok(DtuPred {
+        vertices,
+        faces,
+        culled,
     })
 }
 
