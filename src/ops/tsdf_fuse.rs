@@ -541,9 +541,8 @@ fn fuse_error(e: FuseError<anyhow::Error>, params: &TsdfParams) -> anyhow::Error
         FuseError::Fusion(e) => e.into(),
         FuseError::Batch { cameras, source } => Err::<(), _>(source)
             .with_context(|| {
-                let names = cameras;
                 format!(
-                    "fusing cameras {names:?} (--voxel {}, --sdf-trunc {}, --depth-trunc {}: at \
+                    "fusing cameras {cameras:?} (--voxel {}, --sdf-trunc {}, --depth-trunc {}: at \
                      most {} blocks fit this process's memory budget of {})",
                     params.voxel,
                     params.sdf_trunc,
