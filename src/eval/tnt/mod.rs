@@ -434,6 +434,7 @@ fn cumulative_histogram(d: &[f64], edges: &[f64]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::alignment::registration::tests::axis_angle;
     use crate::model::Similarity;
     use crate::model::crop::Axis;
     use glam::{DMat3, DVec3};
@@ -508,20 +509,6 @@ mod tests {
         }
     }
 
-    /// Rotation about `axis` by `angle` (Rodrigues' formula, rows as written).
-    fn rotation(axis: [f64; 3], angle: f64) -> DMat3 {
-        let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-        let [x, y, z] = axis.map(|c| c / n);
-        let (s, c) = angle.sin_cos();
-        let t = 1.0 - c;
-        DMat3::from_cols_array_2d(&[
-            [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
-            [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
-            [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
-        ])
-        .transpose()
-    }
-
     fn pose(r: &DMat3, c: DVec3) -> DMat4 {
         DMat4::from_cols(
             r.x_axis.extend(0.0),
@@ -552,8 +539,8 @@ mod tests {
                     0.8 + 0.2 * (3.0 * th).sin(),
                 );
                 // Yaw towards the centre, then pitch down a little.
-                let r = rotation([0.0, 0.0, 1.0], th + std::f64::consts::PI)
-                    * rotation([0.0, 1.0, 0.0], 0.3);
+                let r = axis_angle([0.0, 0.0, 1.0], th + std::f64::consts::PI)
+                    * axis_angle([0.0, 1.0, 0.0], 0.3);
                 (r, c)
             })
             .collect()
@@ -576,13 +563,13 @@ mod tests {
         gt_points.extend(&d);
         // `_trans.txt`: reference COLMAP frame → GT frame.
         let g = Similarity {
-            rotation: rotation([0.0, 0.0, 1.0], 0.3),
+            rotation: axis_angle([0.0, 0.0, 1.0], 0.3),
             scale: 0.8,
             translation: DVec3::new(0.5, -0.2, 1.0),
         };
         let g_inv = inverse(&g);
         let s = Similarity {
-            rotation: rotation([1.0, 2.0, -1.0], 0.7),
+            rotation: axis_angle([1.0, 2.0, -1.0], 0.7),
             scale: 2.5,
             translation: DVec3::new(3.0, -1.0, 0.5),
         };

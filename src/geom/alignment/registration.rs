@@ -530,7 +530,7 @@ fn correspond(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// Rotation from an axis (normalised here) and an angle, by Rodrigues'

@@ -186,12 +186,18 @@ impl McmcState {
         dead
     }
 
-    /// How many triangles each rule of [`McmcState::dead`] finds (a
-    /// triangle may match several), and the growth the step will add: the
-    /// verbose report of a densification step.
-    pub fn dead_summary(&self, soup: &TriangleSoup, p: &McmcParams, full_pass: bool) -> String {
+    /// The verbose report of a densification step whose dead mask is
+    /// `dead`: how many triangles each rule of [`McmcState::dead`] finds (a
+    /// triangle may match several), and the growth the step adds.
+    pub fn dead_summary(
+        &self,
+        soup: &TriangleSoup,
+        p: &McmcParams,
+        full_pass: bool,
+        dead: &[bool],
+    ) -> String {
         let n = soup.len();
-        let n_dead = self.dead(soup, p, full_pass).iter().filter(|&&d| d).count();
+        let n_dead = dead.iter().filter(|&&d| d).count();
         let n_add = growth_count(n, n_dead, p.add_shape, p.max_shapes);
         let imp = (0..n)
             .filter(|&i| full_pass && self.importance[i] < p.importance_threshold)
@@ -214,8 +220,19 @@ impl McmcState {
         check_visibility: bool,
         rng: &mut Rng,
     ) -> Vec<Source> {
+        let dead = self.dead(soup, p, check_visibility);
+        self.densify_dead(soup, p, dead, rng)
+    }
+
+    /// [`McmcState::densify`] with the dead mask already computed.
+    pub fn densify_dead(
+        &mut self,
+        soup: &mut TriangleSoup,
+        p: &McmcParams,
+        mut dead: Vec<bool>,
+        rng: &mut Rng,
+    ) -> Vec<Source> {
         let n = soup.len();
-        let mut dead = self.dead(soup, p, check_visibility);
         let n_dead = dead.iter().filter(|&&d| d).count();
         let n_add = growth_count(n, n_dead, p.add_shape, p.max_shapes);
         // Efraimidis–Spirakis keys ln(u)/w over the alive triangles
@@ -365,8 +382,11 @@ impl Strategy<TriangleSoup> for Mcmc {
         let full_pass = self.state.views >= ctx.train_views as u64;
         let mut rng = stream(self.seed ^ RNG_TAG, it);
         let (kind, detail, sources) = if it > self.from && it < self.until {
-            let detail = self.state.dead_summary(soup, &self.params, full_pass);
-            let src = self.state.densify(soup, &self.params, full_pass, &mut rng);
+            let dead = self.state.dead(soup, &self.params, full_pass);
+            let detail = self
+                .state
+                .dead_summary(soup, &self.params, full_pass, &dead);
+            let src = self.state.densify_dead(soup, &self.params, dead, &mut rng);
             ("densify", detail, src)
         } else if it >= self.until {
             let mut mp = self.params.clone();
