@@ -555,6 +555,26 @@ mod tests {
         s: Similarity,
     }
 
+    impl Setup {
+        /// The evaluation's input for reconstruction points `rec` with
+        /// camera poses `rec_traj`, cropped by `crop`.
+        fn input<'a>(
+            &'a self,
+            rec: &'a [[f64; 3]],
+            rec_traj: &'a [DMat4],
+            crop: &'a CropVolume,
+        ) -> TntInput<'a> {
+            TntInput {
+                rec_points: rec,
+                rec_traj,
+                gt_traj: &self.gt_traj,
+                gt_trans: &self.gt_trans,
+                crop,
+                gt_points: &self.gt_points,
+            }
+        }
+    }
+
     fn setup() -> Setup {
         let [a, b, _c, d] = plates();
         let mut gt_points = box_surface();
@@ -606,14 +626,7 @@ mod tests {
         let su = setup();
         let rec: Vec<[f64; 3]> = transform_points(&su.s.matrix(), &su.gt_points);
         let rep = evaluate_tnt(
-            &TntInput {
-                rec_points: &rec,
-                rec_traj: &su.rec_traj,
-                gt_traj: &su.gt_traj,
-                gt_trans: &su.gt_trans,
-                crop: &crop(),
-                gt_points: &su.gt_points,
-            },
+            &su.input(&rec, &su.rec_traj, &crop()),
             TAU,
             &TntParams::default(),
         )
@@ -652,14 +665,7 @@ mod tests {
         rec_gt_frame.extend(&d);
         let rec = transform_points(&su.s.matrix(), &rec_gt_frame);
         let rep = evaluate_tnt(
-            &TntInput {
-                rec_points: &rec,
-                rec_traj: &su.rec_traj,
-                gt_traj: &su.gt_traj,
-                gt_trans: &su.gt_trans,
-                crop: &crop(),
-                gt_points: &su.gt_points,
-            },
+            &su.input(&rec, &su.rec_traj, &crop()),
             TAU,
             &TntParams::default(),
         )
@@ -714,37 +720,14 @@ mod tests {
             },
             ..Default::default()
         };
-        let rep = evaluate_tnt(
-            &TntInput {
-                rec_points: &rec,
-                rec_traj: &su.rec_traj,
-                gt_traj: &su.gt_traj,
-                gt_trans: &su.gt_trans,
-                crop: &nothing,
-                gt_points: &su.gt_points,
-            },
-            TAU,
-            &params,
-        )
-        .unwrap();
+        let rep = evaluate_tnt(&su.input(&rec, &su.rec_traj, &nothing), TAU, &params).unwrap();
         assert_eq!((rep.precision, rep.recall, rep.fscore), (0.0, 0.0, 0.0));
         assert_eq!(
             (rep.bin_edges.clone(), rep.cum_precision.clone()),
             (vec![0.0], vec![0.0])
         );
         let run = |tau: f64, rec_traj: &[DMat4]| {
-            evaluate_tnt(
-                &TntInput {
-                    rec_points: &rec,
-                    rec_traj,
-                    gt_traj: &su.gt_traj,
-                    gt_trans: &su.gt_trans,
-                    crop: &crop(),
-                    gt_points: &su.gt_points,
-                },
-                tau,
-                &params,
-            )
+            evaluate_tnt(&su.input(&rec, rec_traj, &crop()), tau, &params)
         };
         assert!(run(0.0, &su.rec_traj).is_err());
         assert!(run(f64::NAN, &su.rec_traj).is_err());
