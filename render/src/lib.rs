@@ -12,6 +12,8 @@
 //!   backward uses them; the Gaussian backward runs the hand-written reverse
 //!   sweep of `gaussian_vjp`, tested equal to them, because the training
 //!   loop spends its time there);
+//! - [`surfel`]: 2DGS's surfel rasteriser (ray–splat intersection, its
+//!   depth, normal and distortion maps);
 //! - [`depth_normal`]: 2DGS's normals from depth and the depth–normal
 //!   consistency loss with its gradients;
 //! - [`loss`] (L1, SSIM with gradient, PSNR) and [`optim`] (Adam with
@@ -27,6 +29,7 @@ pub mod loss;
 pub mod mesh;
 pub mod optim;
 pub mod sh;
+pub mod surfel;
 #[cfg(test)]
 mod testutil;
 pub mod tiles;
