@@ -13,7 +13,8 @@
 //!   sweep of `gaussian_vjp`, tested equal to them, because the training
 //!   loop spends its time there);
 //! - [`surfel`]: 2DGS's surfel rasteriser (ray–splat intersection, its
-//!   depth, normal and distortion maps);
+//!   depth, normal and distortion maps) with its backward pass
+//!   [`surfel_grad`];
 //! - [`depth_normal`]: 2DGS's normals from depth and the depth–normal
 //!   consistency loss with its gradients;
 //! - [`loss`] (L1, SSIM with gradient, PSNR) and [`optim`] (Adam with
@@ -30,6 +31,7 @@ pub mod mesh;
 pub mod optim;
 pub mod sh;
 pub mod surfel;
+pub mod surfel_grad;
 #[cfg(test)]
 mod testutil;
 pub mod tiles;

@@ -363,7 +363,6 @@ fn project_with(
 
 /// One ray–splat evaluation (the kernel's per-pixel intermediate values).
 #[derive(Clone, Copy, Debug)]
-#[allow(dead_code)] // the backward pass reads the rest
 pub(crate) struct Hit {
     pub k: [f32; 3],
     pub l: [f32; 3],
@@ -636,7 +635,7 @@ pub fn rasterize(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::testutil::{Lcg, random_sh, test_camera};
     use glam::{DMat3, DQuat, DVec3};
