@@ -75,7 +75,10 @@ use crate::Camera;
 use crate::dual::{Real, sh_rgb};
 use crate::gaussian::{RenderOutput, quat_matrix, rotation_rows};
 use crate::sh::coeff_count;
-use crate::tiles::{TILE, TileLists, render_tiles, tile_pixels, tile_rect_cuda};
+use crate::tiles::{
+    PREFETCH_DISTANCE, TILE, TileLists, intersect_rects, prefetch_ahead, render_tiles, tile_pixels,
+    tile_rect, tile_rect_cuda,
+};
 
 /// `compute_aabb`'s cutoff (the kernel's `cutoff` without `TIGHTBBOX`), in
 /// standard deviations.
@@ -180,6 +183,12 @@ pub struct ProjectedSurfel {
     pub xy: [f32; 2],
     /// Box radius in pixels (an integer, ≥ 3; the kernel's `radii`).
     pub radius: f32,
+    /// A screen box (x0, y0, x1, y1), OpenCV pixel coordinates, outside
+    /// which the surfel's α is below 1/255 for certain (see [`reach_box`]):
+    /// pixels and tiles outside it are not visited (same output, less
+    /// work). Infinite when the α ≥ 1/255 region is unbounded; empty
+    /// (x0 > x1) when the opacity is below 1/255.
+    pub reach: [f32; 4],
     /// View depth (camera z) of the centre: the sort key.
     pub depth: f32,
     /// Unit normal in camera axes, facing the camera.
@@ -306,9 +315,98 @@ pub(crate) fn project_t<T: Real>(
 /// The kernel's tile range (`getRect` of the box centre ± radius) of a
 /// projected surfel on a `w × h` image.
 #[inline]
-pub(crate) fn tiles_of(p: &ProjectedSurfel, w: usize, h: usize) -> Option<[u32; 4]> {
+pub(crate) fn kernel_tiles(p: &ProjectedSurfel, w: usize, h: usize) -> Option<[u32; 4]> {
     let r = p.radius;
     tile_rect_cuda([p.xy[0] - r, p.xy[1] - r, p.xy[0] + r, p.xy[1] + r], w, h)
+}
+
+/// The tiles a projected surfel is binned to: the kernel's range
+/// ([`kernel_tiles`]) cut to the tiles its [`ProjectedSurfel::reach`]
+/// touches (elsewhere it would only be skipped, so the output is the
+/// kernel's); `None` when none is left.
+#[inline]
+pub(crate) fn tiles_of(p: &ProjectedSurfel, w: usize, h: usize) -> Option<[u32; 4]> {
+    intersect_rects(kernel_tiles(p, w, h)?, tile_rect(p.reach, w, h)?)
+}
+
+/// A screen box outside which a surfel with homography rows `t`, box
+/// centre `xy` and opacity `op` has α = min(0.99, o·exp(−ρ/2)) < 1/255,
+/// i.e. ρ = min(ρ₃, ρ₂) > ρ_max = 2·ln(255·o): the union of the box of the
+/// circle ρ₂ ≤ ρ_max (radius √(ρ_max/2) about `xy`) and the box of the
+/// projected disc u² + v² ≤ ρ_max, which is `compute_aabb`'s formula with
+/// the cutoff √ρ_max (exact for a disc wholly in front of the camera,
+/// c²·(T_w,x² + T_w,y²) < T_w,z²; otherwise the region is unbounded and the
+/// box infinite). Widened by 1e-3 relative and 0.05 pixels so that the f32
+/// rounding of the per-pixel evaluation cannot reach past it (the fast
+/// path is tested equal, bit for bit, to the plain per-pixel loop).
+fn reach_box(t: &[[f64; 3]; 3], xy: [f64; 2], op: f32) -> [f32; 4] {
+    let op = op as f64;
+    if !(op * 255.0 >= 1.0) {
+        return [
+            f32::INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        ];
+    }
+    let rho_max = 2.0 * (255.0 * op).ln();
+    let r2 = (0.5 * rho_max).sqrt() * (1.0 + 1e-3) + 0.05;
+    let circle = [xy[0] - r2, xy[1] - r2, xy[0] + r2, xy[1] + r2];
+    let [tu, tv, tw] = *t;
+    let d = rho_max * (tw[0] * tw[0] + tw[1] * tw[1]) - tw[2] * tw[2];
+    if !(d < 0.0) {
+        return [
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+            f32::INFINITY,
+            f32::INFINITY,
+        ];
+    }
+    let f = [rho_max / d, rho_max / d, -1.0 / d];
+    let fdot =
+        |a: [f64; 3], b: [f64; 3]| f[0] * a[0] * b[0] + f[1] * a[1] * b[1] + f[2] * a[2] * b[2];
+    let c = [fdot(tu, tw), fdot(tv, tw)];
+    let hx = (c[0] * c[0] - fdot(tu, tu)).max(0.0).sqrt() * (1.0 + 1e-3) + 0.05;
+    let hy = (c[1] * c[1] - fdot(tv, tv)).max(0.0).sqrt() * (1.0 + 1e-3) + 0.05;
+    let b = [
+        (c[0] - hx).min(circle[0]),
+        (c[1] - hy).min(circle[1]),
+        (c[0] + hx).max(circle[2]),
+        (c[1] + hy).max(circle[3]),
+    ];
+    if b.iter().all(|v| v.is_finite()) {
+        b.map(|v| v as f32)
+    } else {
+        [
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+            f32::INFINITY,
+            f32::INFINITY,
+        ]
+    }
+}
+
+/// The pixels of tile (tx, ty) inside a projected surfel's reach:
+/// inclusive column and row ranges in image coordinates, `None` if empty.
+#[inline]
+pub(crate) fn pixel_span(
+    p: &ProjectedSurfel,
+    tx: usize,
+    ty: usize,
+    w: usize,
+    h: usize,
+) -> Option<(usize, usize, usize, usize)> {
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    let (x1, y1) = (((tx + 1) * TILE).min(w) - 1, ((ty + 1) * TILE).min(h) - 1);
+    // pixel centres i + 0.5 in [b0, b1]; f32 → usize casts saturate
+    let lo = |b: f32, a: usize| ((b - 0.5).ceil().max(a as f32)) as usize;
+    let hi = |b: f32, e: usize| {
+        let v = (b - 0.5).floor();
+        (v >= 0.0).then(|| v.min(e as f32) as usize)
+    };
+    let (xa, ya) = (lo(p.reach[0], x0), lo(p.reach[1], y0));
+    let (xb, yb) = (hi(p.reach[2], x1)?, hi(p.reach[3], y1)?);
+    (xa <= xb && ya <= yb).then_some((xa, xb, ya, yb))
 }
 
 /// Projects surfel `i`; `None` when culled (also when its tile range on the
@@ -345,6 +443,7 @@ fn project_with(
         return None;
     }
     let f = |v: [f64; 3]| v.map(|x| x as f32);
+    let reach = reach_box(&p.t, p.xy, op);
     let out = ProjectedSurfel {
         id: i as u32,
         tu: f(p.t[0]),
@@ -352,12 +451,13 @@ fn project_with(
         tw: f(p.t[2]),
         xy: p.xy.map(|v| v as f32),
         radius: p.radius as f32,
+        reach,
         depth: p.depth as f32,
         normal: f(p.normal),
         opacity: op,
         rgb: p.rgb.map(|v| v.max(0.0) as f32),
     };
-    tiles_of(&out, cam.width as usize, cam.height as usize)?;
+    kernel_tiles(&out, cam.width as usize, cam.height as usize)?;
     Some(out)
 }
 
@@ -449,7 +549,7 @@ pub(crate) fn dist_map(z: f32, near: f32, far: f32) -> f32 {
 }
 
 /// One pixel's outputs.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct PixelOut {
     rgb: [f32; 3],
     alpha: f32,
@@ -465,9 +565,103 @@ struct PixelOut {
     median_pos: u32,
 }
 
-/// Blends the sorted list of a tile for each of its pixels (row-major),
-/// pixel by pixel as the kernel does.
+/// Per-pixel accumulators of one tile.
+#[derive(Clone, Copy, Default)]
+struct Acc {
+    o: PixelOut,
+    t: f32,
+    c: [f32; 3],
+    done: bool,
+}
+
+/// Blends the sorted list of a tile for each of its pixels (row-major).
+///
+/// Surfel-major: each surfel visits only the pixels of its reach box;
+/// every pixel still sees the contributions in list order with the same
+/// f32 operations as the kernel's per-pixel loop, so the result is the
+/// same (tested against [`render_tile_plain`]).
 fn render_tile(
+    proj: &[ProjectedSurfel],
+    list: &[u32],
+    ti: usize,
+    tiles_x: usize,
+    w: usize,
+    h: usize,
+    s: &SurfelSettings,
+) -> Vec<PixelOut> {
+    let (near, far) = (s.near as f32, s.far as f32);
+    let (tx, ty) = (ti % tiles_x, ti / tiles_x);
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    let mut acc = [Acc {
+        t: 1.0,
+        ..Default::default()
+    }; TILE * TILE];
+    let mut active = (((tx + 1) * TILE).min(w) - x0) * (((ty + 1) * TILE).min(h) - y0);
+    for (li, &pi) in list.iter().enumerate() {
+        if active == 0 {
+            break;
+        }
+        prefetch_ahead(proj, list, li + PREFETCH_DISTANCE);
+        let p = &proj[pi as usize];
+        let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
+            continue;
+        };
+        for y in ya..=yb {
+            let py = y as f32 + 0.5;
+            for x in xa..=xb {
+                let a = &mut acc[(y - y0) * TILE + (x - x0)];
+                if a.done {
+                    continue;
+                }
+                let Some(hh) = hit(p, x as f32 + 0.5, py, near) else {
+                    continue;
+                };
+                let t = a.t;
+                let test_t = t * (1.0 - hh.alpha);
+                if test_t < T_STOP {
+                    a.done = true;
+                    active -= 1;
+                    continue;
+                }
+                let o = &mut a.o;
+                let wgt = hh.alpha * t;
+                let at = 1.0 - t;
+                let m = dist_map(hh.depth, near, far);
+                o.distortion += (m * m * at + o.m2 - 2.0 * m * o.m1) * wgt;
+                o.depth_sum += hh.depth * wgt;
+                o.m1 += m * wgt;
+                o.m2 += m * m * wgt;
+                if t > 0.5 {
+                    o.median = hh.depth;
+                    o.median_pos = li as u32 + 1;
+                }
+                for k in 0..3 {
+                    o.normal_sum[k] += p.normal[k] * wgt;
+                    a.c[k] += p.rgb[k] * wgt;
+                }
+                a.t = test_t;
+                o.count += 1;
+                o.last = li as u32 + 1;
+            }
+        }
+    }
+    tile_pixels(ti, tiles_x, w, h)
+        .map(|(x, y)| {
+            let a = &acc[(y - y0) * TILE + (x - x0)];
+            let mut o = a.o;
+            o.rgb = std::array::from_fn(|k| a.c[k] + a.t * s.background[k]);
+            o.alpha = 1.0 - a.t;
+            o.final_t = a.t;
+            o
+        })
+        .collect()
+}
+
+/// Blends the sorted list of a tile for each of its pixels (row-major),
+/// pixel by pixel over the whole list as the kernel does: the reference
+/// for [`render_tile`] in the tests.
+#[cfg(test)]
+fn render_tile_plain(
     proj: &[ProjectedSurfel],
     list: &[u32],
     ti: usize,
@@ -844,6 +1038,41 @@ pub(crate) mod tests {
         assert_eq!(a.normal_sum, b.normal_sum);
         assert_eq!(sa.distortion, sb.distortion);
         assert!(a.count.iter().any(|&c| c >= 3), "layers overlap");
+    }
+
+    /// The reach boxes and surfel-major tile loop are a speed-up only: on
+    /// random scenes (thin, tiny, faint, opaque, large surfels seen at all
+    /// angles, some whose 3σ disc reaches behind the camera) every pixel's
+    /// outputs equal, bit for bit, the kernel's plain per-pixel loop over
+    /// its own tile lists (`getRect` of the 3σ box, uncut).
+    #[test]
+    fn fast_path_equals_the_plain_loop() {
+        for (seed, eye) in [(21u64, -5.0), (22, -2.5), (23, -1.2)] {
+            let mut sf = random_scene(seed, 150, 1);
+            // a few huge and a few faint ones
+            for i in 0..10 {
+                sf.scales[i] = [3.0, 2.0];
+                sf.opacities[i + 10] = 0.006;
+            }
+            let cam = look_at(70, 50, 50.0, DVec3::new(0.4, -0.3, eye), DVec3::ZERO);
+            let s = SurfelSettings::default();
+            let (w, h) = (70, 50);
+            let (_, st) = rasterize(&sf, &cam, &s);
+            let full = TileLists::build(&st.proj, |p| kernel_tiles(p, w, h), |p| p.depth, w, h);
+            let mut cut = 0;
+            for ti in 0..full.len() {
+                let fast = render_tile(&st.proj, st.tiles.list(ti), ti, full.tiles_x, w, h, &s);
+                let plain = render_tile_plain(&st.proj, full.list(ti), ti, full.tiles_x, w, h, &s);
+                cut += full.list(ti).len() - st.tiles.list(ti).len();
+                for (a, b) in fast.iter().zip(&plain) {
+                    let key = |o: &PixelOut| (o.rgb, o.alpha, o.depth_sum, o.median, o.normal_sum);
+                    assert_eq!(key(a), key(b), "seed {seed} tile {ti}");
+                    assert_eq!((a.m1, a.m2, a.distortion), (b.m1, b.m2, b.distortion));
+                    assert_eq!((a.count, a.final_t), (b.count, b.final_t));
+                }
+            }
+            assert!(cut > 0, "seed {seed}: the reach boxes cut nothing");
+        }
     }
 
     /// `n` random surfels around the origin, SH degree `deg`.
