@@ -53,9 +53,10 @@ use crate::gaussian_grad::AuxGrads;
 use crate::gaussian_vjp::colour_vjp;
 use crate::sh::coeff_count;
 use crate::surfel::{
-    FILTER_INV_SQUARE, SurfelSettings, SurfelState, Surfels2, dist_map, hit, project_t, rasterize,
+    FILTER_INV_SQUARE, Hit, ProjectedSurfel, SurfelSettings, SurfelState, Surfels2, dist_map, hit,
+    pixel_span, project_t, rasterize,
 };
-use crate::tiles::tile_pixels;
+use crate::tiles::{PREFETCH_DISTANCE, TILE, prefetch_ahead, tile_pixels};
 
 /// Gradients, shaped like [`Surfels2`]'s fields, plus 2DGS's screen-space
 /// statistic.
@@ -183,6 +184,73 @@ pub fn backward_state(
     through_projection(s, cam, settings, state, &screen)
 }
 
+/// One pixel's state in the backward walk.
+#[derive(Clone, Copy, Default)]
+struct PixelBack {
+    /// Transmittance in front of the current contribution.
+    t: f32,
+    /// R: Σ over the contributions behind of g_w·α·Π(1 − α) between.
+    r: f32,
+    t_final: f32,
+    /// 1 − T_final.
+    a_f: f32,
+    gc: [f32; 3],
+    /// ∂L/∂alpha (with the expected depth's dependence on it) − ∂L/∂C·bg.
+    ga_bg: f32,
+    /// ∂L/∂D (D = Σ w z).
+    g_d: f32,
+    g_med: f32,
+    gn: [f32; 3],
+    g_dist: f32,
+    m1f: f32,
+    m2f: f32,
+    med: u32,
+    last: u32,
+}
+
+/// Adds one contribution's gradients to its surfel's screen gradient `e`,
+/// given ∂L/∂α and ∂L/∂z (intersection depth) at pixel centre (px, py).
+#[inline(always)]
+fn contribution_grads(
+    p: &ProjectedSurfel,
+    hh: &Hit,
+    px: f32,
+    py: f32,
+    d_alpha: f32,
+    g_z: f32,
+    e: &mut [f32; K],
+) {
+    // α = min(0.99, o·G), G = exp(−ρ/2)
+    let mut d_rho = 0.0f32;
+    if hh.raw < 0.99 {
+        e[G_OP] += hh.g * d_alpha;
+        d_rho = -0.5 * p.opacity * hh.g * d_alpha;
+    }
+    // z = u·T_w,x + v·T_w,y + T_w,z
+    let mut d_s = [g_z * p.tw[0], g_z * p.tw[1]];
+    e[6] += g_z * hh.s[0];
+    e[7] += g_z * hh.s[1];
+    e[8] += g_z;
+    if hh.rho3d <= hh.rho2d {
+        d_s[0] += 2.0 * hh.s[0] * d_rho;
+        d_s[1] += 2.0 * hh.s[1] * d_rho;
+    } else {
+        let c = 2.0 * FILTER_INV_SQUARE * d_rho;
+        e[G_XY] += c * hh.d[0];
+        e[G_XY + 1] += c * hh.d[1];
+    }
+    // (u, v) = (p_x, p_y)/p_z, p = k × l, k = x·T_w − T_u, l = y·T_w − T_v
+    let (ax, ay) = (d_s[0] / hh.pz, d_s[1] / hh.pz);
+    let d_p = [ax, ay, -(ax * hh.s[0] + ay * hh.s[1])];
+    let d_k = cross(hh.l, d_p);
+    let d_l = cross(d_p, hh.k);
+    for c in 0..3 {
+        e[c] -= d_k[c];
+        e[3 + c] -= d_l[c];
+        e[6 + c] += px * d_k[c] + py * d_l[c];
+    }
+}
+
 /// Stage 1: per projected surfel, ∂L/∂ its screen quantities.
 fn screen_grads(
     s: &SurfelSettings,
@@ -204,9 +272,12 @@ fn screen_grads(
         .map(|ti| {
             let list = state.tiles.list(ti);
             let mut acc = vec![[0.0f32; K]; list.len()];
+            let (tx, ty) = (ti % tw, ti / tw);
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            let mut px_state = [PixelBack::default(); TILE * TILE];
+            let mut max_last = 0;
             for (x, y) in tile_pixels(ti, tw, w, h) {
                 let o = y * w + x;
-                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
                 let t_final = state.final_t[o];
                 let a_f = 1.0 - t_final;
                 let gc = d_rgb[o];
@@ -220,76 +291,76 @@ fn screen_grads(
                         ga -= dd[o] * e / a_f;
                     }
                 }
-                let g_med = aux.median_depth.map_or(0.0, |a| a[o]);
-                let gn = aux.normal.map_or([0.0; 3], |a| a[o]);
-                let g_dist = aux.distortion.map_or(0.0, |a| a[o]);
-                let (m1f, m2f) = (state.m1[o], state.m2[o]);
-                let bg_dot =
-                    gc[0] * s.background[0] + gc[1] * s.background[1] + gc[2] * s.background[2];
-                let med = state.median_pos[o];
-                let mut t = t_final;
-                let mut r = 0.0f32;
-                for li in (0..state.last[o] as usize).rev() {
-                    let p = &proj[list[li] as usize];
-                    let Some(hh) = hit(p, px, py, near) else {
-                        continue;
-                    };
-                    let alpha = hh.alpha;
-                    let inv = 1.0 / (1.0 - alpha);
-                    t *= inv;
-                    let wgt = alpha * t;
-                    let z = hh.depth;
-                    let e = &mut acc[li];
-                    // ∂L/∂w of this contribution, and the direct gradients
-                    let mut g_w = g_d * z;
-                    for k in 0..3 {
-                        g_w += gc[k] * p.rgb[k] + gn[k] * p.normal[k];
-                        e[G_RGB + k] += gc[k] * wgt;
-                        e[G_N + k] += gn[k] * wgt;
-                    }
-                    let mut g_z = g_d * wgt;
-                    if g_dist != 0.0 {
-                        let m = dist_map(z, near, far);
-                        g_w += g_dist * (m * m * a_f - 2.0 * m * m1f + m2f);
-                        let g_m = g_dist * 2.0 * wgt * (m * a_f - m1f);
-                        g_z += g_m * dm_scale / (z * z);
-                    }
-                    if li as u32 + 1 == med {
-                        g_z += g_med;
-                    }
-                    let d_alpha = t * (g_w - r) + (ga - bg_dot) * t_final * inv;
-                    r = g_w * alpha + (1.0 - alpha) * r;
-                    // α = min(0.99, o·G), G = exp(−ρ/2)
-                    let mut d_rho = 0.0f32;
-                    if hh.raw < 0.99 {
-                        e[G_OP] += hh.g * d_alpha;
-                        d_rho = -0.5 * p.opacity * hh.g * d_alpha;
-                    }
-                    // z = u·T_w,x + v·T_w,y + T_w,z
-                    let mut d_s = [g_z * p.tw[0], g_z * p.tw[1]];
-                    e[6] += g_z * hh.s[0];
-                    e[7] += g_z * hh.s[1];
-                    e[8] += g_z;
-                    if hh.rho3d <= hh.rho2d {
-                        d_s[0] += 2.0 * hh.s[0] * d_rho;
-                        d_s[1] += 2.0 * hh.s[1] * d_rho;
-                    } else {
-                        let c = 2.0 * FILTER_INV_SQUARE * d_rho;
-                        e[G_XY] += c * hh.d[0];
-                        e[G_XY + 1] += c * hh.d[1];
-                    }
-                    // (u, v) = (p_x, p_y)/p_z, p = k × l, k = x·T_w − T_u,
-                    // l = y·T_w − T_v
-                    let (ax, ay) = (d_s[0] / hh.pz, d_s[1] / hh.pz);
-                    let d_p = [ax, ay, -(ax * hh.s[0] + ay * hh.s[1])];
-                    let d_k = cross(hh.l, d_p);
-                    let d_l = cross(d_p, hh.k);
-                    for c in 0..3 {
-                        e[c] -= d_k[c];
-                        e[3 + c] -= d_l[c];
-                        e[6 + c] += px * d_k[c] + py * d_l[c];
+                let bg = s.background;
+                max_last = max_last.max(state.last[o]);
+                px_state[(y - y0) * TILE + (x - x0)] = PixelBack {
+                    t: t_final,
+                    r: 0.0,
+                    t_final,
+                    a_f,
+                    gc,
+                    ga_bg: ga - (gc[0] * bg[0] + gc[1] * bg[1] + gc[2] * bg[2]),
+                    g_d,
+                    g_med: aux.median_depth.map_or(0.0, |a| a[o]),
+                    gn: aux.normal.map_or([0.0; 3], |a| a[o]),
+                    g_dist: aux.distortion.map_or(0.0, |a| a[o]),
+                    m1f: state.m1[o],
+                    m2f: state.m2[o],
+                    med: state.median_pos[o],
+                    last: state.last[o],
+                };
+            }
+            // surfel-major, back to front: each pixel still walks its own
+            // contributions in reverse list order
+            for li in (0..max_last as usize).rev() {
+                if li >= PREFETCH_DISTANCE {
+                    prefetch_ahead(proj, list, li - PREFETCH_DISTANCE);
+                }
+                let p = &proj[list[li] as usize];
+                let Some((xa, xb, ya, yb)) = pixel_span(p, tx, ty, w, h) else {
+                    continue;
+                };
+                let mut e = [0.0f32; K];
+                for y in ya..=yb {
+                    let py = y as f32 + 0.5;
+                    for x in xa..=xb {
+                        let b = &mut px_state[(y - y0) * TILE + (x - x0)];
+                        if li as u32 >= b.last {
+                            continue;
+                        }
+                        let px = x as f32 + 0.5;
+                        let Some(hh) = hit(p, px, py, near) else {
+                            continue;
+                        };
+                        let alpha = hh.alpha;
+                        let inv = 1.0 / (1.0 - alpha);
+                        b.t *= inv;
+                        let t = b.t;
+                        let wgt = alpha * t;
+                        let z = hh.depth;
+                        // ∂L/∂w of this contribution, and the direct gradients
+                        let mut g_w = b.g_d * z;
+                        for k in 0..3 {
+                            g_w += b.gc[k] * p.rgb[k] + b.gn[k] * p.normal[k];
+                            e[G_RGB + k] += b.gc[k] * wgt;
+                            e[G_N + k] += b.gn[k] * wgt;
+                        }
+                        let mut g_z = b.g_d * wgt;
+                        if b.g_dist != 0.0 {
+                            let m = dist_map(z, near, far);
+                            g_w += b.g_dist * (m * m * b.a_f - 2.0 * m * b.m1f + b.m2f);
+                            let g_m = b.g_dist * 2.0 * wgt * (m * b.a_f - b.m1f);
+                            g_z += g_m * dm_scale / (z * z);
+                        }
+                        if li as u32 + 1 == b.med {
+                            g_z += b.g_med;
+                        }
+                        let d_alpha = t * (g_w - b.r) + b.ga_bg * b.t_final * inv;
+                        b.r = g_w * alpha + (1.0 - alpha) * b.r;
+                        contribution_grads(p, &hh, px, py, d_alpha, g_z, &mut e);
                     }
                 }
+                acc[li] = e;
             }
             acc
         })
@@ -388,7 +459,6 @@ fn through_projection(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::surfel::ProjectedSurfel;
     use crate::surfel::tests::{look_at, random_scene};
     use crate::testutil::{Lcg, check_gradient, random_sh};
     use glam::{DQuat, DVec3};
