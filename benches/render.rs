@@ -8,7 +8,8 @@
 //! degree 3 with random coefficients; a 1280×720 pinhole camera, f = 1000.
 //! Reports the wall time of the forward pass, of forward + backward (with a
 //! random per-pixel RGB gradient, as a loss would give), best of 3, and the
-//! mean number of contributions per pixel. Then 1M triangles (centres as the
+//! mean number of contributions per pixel. Then the same scene as 1M 2DGS
+//! surfels (the first two scales), forward and forward + backward. Then 1M triangles (centres as the
 //! Gaussians, circumradius 0.01–0.1, σ 0.3–2, opacity 0.1–1), forward and
 //! forward + backward. Then, when `../shared/data` is present, the real
 //! 152,746-Gaussian biker scene (SH 0) from an orbit camera at 1280×720.
@@ -20,8 +21,9 @@ use glam::{DMat3, DVec3};
 use rand::{RngExt, SeedableRng};
 use splatkit_render::Camera;
 use splatkit_render::gaussian::{Gaussians3, RasterSettings, rasterize};
+use splatkit_render::surfel::{self, SurfelSettings, Surfels2};
 use splatkit_render::triangle::{self, Triangles3};
-use splatkit_render::{gaussian_grad, triangle_grad};
+use splatkit_render::{gaussian_grad, surfel_grad, triangle_grad};
 
 fn main() {
     let scale: f64 = std::env::var("SPLATKIT_BENCH_SCALE")
@@ -85,6 +87,31 @@ fn main() {
     }
     println!(
         "{n} Gaussians, 1280x720, {threads} threads: forward {fwd:.3} s, forward+backward {both:.3} s ({:.2}x), {contributions:.1} contributions per pixel",
+        both / fwd
+    );
+    // the same scene as 2DGS surfels: the first two scales, same rotations
+    let sf = Surfels2 {
+        means: g.means.clone(),
+        scales: g.scales.iter().map(|s| [s[0], s[1]]).collect(),
+        rotations: g.rotations.clone(),
+        opacities: g.opacities.clone(),
+        sh: g.sh.clone(),
+        sh_degree: 3,
+    };
+    let ss = SurfelSettings::default();
+    let (mut fwd, mut both, mut contributions) = (f64::INFINITY, f64::INFINITY, 0.0);
+    for _ in 0..3 {
+        let t = Instant::now();
+        let (img, st) = surfel::rasterize(&sf, &cam, &ss);
+        fwd = fwd.min(t.elapsed().as_secs_f64());
+        let grads = surfel_grad::backward_state(&sf, &cam, &ss, &st, &d_rgb, &Default::default());
+        both = both.min(t.elapsed().as_secs_f64());
+        std::hint::black_box(grads);
+        contributions = img.count.iter().map(|&c| c as f64).sum::<f64>() / img.count.len() as f64;
+    }
+    drop(sf);
+    println!(
+        "{n} surfels, 1280x720, {threads} threads: forward {fwd:.3} s, forward+backward {both:.3} s ({:.2}x), {contributions:.1} contributions per pixel",
         both / fwd
     );
     let mut t3 = Triangles3 {
