@@ -85,6 +85,7 @@ use crate::tiles::{
 pub const CUTOFF: f64 = 3.0;
 /// The kernel's `FilterSize` (√2/2 as written there): the box radius is at
 /// least ⌈`CUTOFF`·`FILTER_SIZE`⌉ = 3 pixels.
+#[allow(clippy::approx_constant)] // the kernel's truncated literal, on purpose
 pub const FILTER_SIZE: f64 = 0.707106;
 /// The kernel's `FilterInvSquare`: the low-pass exponent is
 /// 2·|p_box − pixel|² (a Gaussian of variance ½ pixel²).
@@ -184,7 +185,7 @@ pub struct ProjectedSurfel {
     /// Box radius in pixels (an integer, ≥ 3; the kernel's `radii`).
     pub radius: f32,
     /// A screen box (x0, y0, x1, y1), OpenCV pixel coordinates, outside
-    /// which the surfel's α is below 1/255 for certain (see [`reach_box`]):
+    /// which the surfel's α is below 1/255 for certain (see `reach_box`):
     /// pixels and tiles outside it are not visited (same output, less
     /// work). Infinite when the α ≥ 1/255 region is unbounded; empty
     /// (x0 > x1) when the opacity is below 1/255.
@@ -341,7 +342,7 @@ pub(crate) fn tiles_of(p: &ProjectedSurfel, w: usize, h: usize) -> Option<[u32; 
 /// path is tested equal, bit for bit, to the plain per-pixel loop).
 fn reach_box(t: &[[f64; 3]; 3], xy: [f64; 2], op: f32) -> [f32; 4] {
     let op = op as f64;
-    if !(op * 255.0 >= 1.0) {
+    if op.is_nan() || op * 255.0 < 1.0 {
         return [
             f32::INFINITY,
             f32::INFINITY,
@@ -354,7 +355,7 @@ fn reach_box(t: &[[f64; 3]; 3], xy: [f64; 2], op: f32) -> [f32; 4] {
     let circle = [xy[0] - r2, xy[1] - r2, xy[0] + r2, xy[1] + r2];
     let [tu, tv, tw] = *t;
     let d = rho_max * (tw[0] * tw[0] + tw[1] * tw[1]) - tw[2] * tw[2];
-    if !(d < 0.0) {
+    if d.is_nan() || d >= 0.0 {
         return [
             f32::NEG_INFINITY,
             f32::NEG_INFINITY,
@@ -697,9 +698,9 @@ fn render_tile_plain(
                     o.median = hh.depth;
                     o.median_pos = li as u32 + 1;
                 }
-                for k in 0..3 {
+                for (k, ck) in c.iter_mut().enumerate() {
                     o.normal_sum[k] += p.normal[k] * wgt;
-                    c[k] += p.rgb[k] * wgt;
+                    *ck += p.rgb[k] * wgt;
                 }
                 t = test_t;
                 o.count += 1;
@@ -872,7 +873,7 @@ pub(crate) mod tests {
                 sf.means.push(c.as_vec3().to_array());
                 sf.scales
                     .push([scale * r.range(0.8, 1.2), scale * r.range(0.8, 1.2)]);
-                let spin = DQuat::from_rotation_z(r.range(0.0, 6.28) as f64);
+                let spin = DQuat::from_rotation_z(r.range(0.0, std::f64::consts::TAU) as f64);
                 let flip = if r.next_f64() < 0.5 {
                     DQuat::IDENTITY
                 } else {

@@ -25,7 +25,7 @@
 //!    tile lists keep this deterministic; they are summed in tile order.
 //! 2. per surfel, ∂L/∂(T, box centre, normal) is taken back to the mean,
 //!    scales and quaternion through the Jacobian of the forward code
-//!    ([`crate::surfel::project_t`] run with [`Dual`] numbers, nine
+//!    (`surfel::project_t` run with [`Dual`] numbers, nine
 //!    tangents); the colour's gradient reaches SH and the mean through the
 //!    Gaussian rasteriser's SH reverse sweep.
 //!
