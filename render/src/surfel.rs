@@ -66,8 +66,18 @@
 //! - T, the box, the normal and the colour are computed in f64 and rounded
 //!   to f32 (the kernel: f32 throughout, through the NDC matrices); the
 //!   per-pixel blending is in f32 with the kernel's operations and order;
-//! - a zero quaternion gives the identity rotation (the kernel: NaN);
-//!   surfels with a non-finite T, box or depth are culled.
+//! - a zero or non-finite quaternion gives the identity rotation (the
+//!   kernel: NaN), as the Gaussian rasteriser does; surfels with a NaN
+//!   opacity or a non-finite centre, T or box are culled;
+//! - speed only, same output: each surfel is binned to the kernel's tiles
+//!   cut to a box outside which its α < 1/255 for certain, and visits only
+//!   the pixels of that box (tested bit-equal to the kernel's plain
+//!   per-pixel loop over its own tile lists).
+//!
+//! Checked against an independent NumPy re-implementation of the kernel's
+//! rules (`scripts/compare/surfel_reference.py`, fixture
+//! `render/tests/data/surfel_reference.txt`, test
+//! `render/tests/surfel_reference.rs`).
 
 use rayon::prelude::*;
 
