@@ -8,6 +8,10 @@ Usage (from the repository root):
     python3 -m venv /tmp/fxvenv
     /tmp/fxvenv/bin/pip install numpy scipy open3d trimesh pymeshlab pycolmap plyfile torch
     /tmp/fxvenv/bin/python scripts/make_fixtures.py [TESTDATA_DIR]
+    /tmp/fxvenv/bin/python scripts/make_fixtures.py --only-mip [TESTDATA_DIR]
+
+(--only-mip writes only gaussians/mip_splatting.{ply,json}, needing only
+numpy and plyfile, and prints its README lines.)
 
 TESTDATA_DIR defaults to testdata/ at the repository root. Everything is
 deterministic (fixed seeds); re-running rewrites the same bytes except the
@@ -26,7 +30,8 @@ What is written, and checked by tests/fixtures.rs:
              a coloured icosphere with normals and of a coloured oriented
              point cloud; a GLB written by trimesh
   colmap/    a COLMAP text model written by pycolmap (write_text)
-  gaussians/ a 3DGS PLY written with plyfile as graphdeco's save_ply does
+  gaussians/ a 3DGS PLY written with plyfile as graphdeco's save_ply does,
+             and a Mip-Splatting / GOF PLY (with filter_3D) as theirs does
 
 Each entry of expected.json says how its floats compare: "exact" (the f32
 the tool stored, or the f64 it stored rounded to f32 by the reader) or a
@@ -604,6 +609,77 @@ def gaussians_file(out, exp, readme):
     return f"plyfile {ver}"
 
 
+def mip_gaussians_file(out, exp, readme):
+    """A PLY as Mip-Splatting's / GOF's GaussianModel.save_ply writes it: the
+    3DGS attribute list (x y z nx ny nz f_dc_0..2 f_rest_0..44 opacity
+    scale_0..2 rot_0..3) then `filter_3D`, all float32, SH degree 3. The
+    expected values (in gaussians/mip_splatting.json, so that this function
+    can run alone) include the scales and opacities their renderer draws,
+    computed here with NumPy float64 by get_scaling_with_3D_filter and
+    get_opacity_with_3D_filter's formulas."""
+    import plyfile
+
+    from importlib.metadata import version
+
+    ver = version("plyfile")
+    rng = np.random.default_rng(25)
+    n = 60
+    xyz = rng.normal(size=(n, 3)).astype(np.float32)
+    normals = np.zeros_like(xyz)
+    f_dc = rng.normal(size=(n, 1, 3)).astype(np.float32)
+    f_rest = (rng.normal(size=(n, 15, 3)) * 0.1).astype(np.float32)
+    opacity = rng.normal(size=(n, 1)).astype(np.float32)
+    scale = (rng.normal(size=(n, 3)) - 4.5).astype(np.float32)
+    rotation = rng.normal(size=(n, 4)).astype(np.float32)
+    # compute_3D_filter: distance / focal * sqrt(0.2), a few 1e-3 here
+    filter_3d = (rng.uniform(2.0, 6.0, size=(n, 1)) / 1000.0 * 0.2 ** 0.5).astype(np.float32)
+    dc_flat = f_dc.transpose(0, 2, 1).reshape(n, -1)
+    rest_flat = f_rest.transpose(0, 2, 1).reshape(n, -1)
+    names = ["x", "y", "z", "nx", "ny", "nz"]
+    names += [f"f_dc_{i}" for i in range(3)] + [f"f_rest_{i}" for i in range(45)]
+    names += ["opacity"] + [f"scale_{i}" for i in range(3)] + [f"rot_{i}" for i in range(4)]
+    names += ["filter_3D"]
+    table = np.concatenate([xyz, normals, dc_flat, rest_flat, opacity, scale, rotation, filter_3d], axis=1)
+    rec = np.empty(n, dtype=[(a, "f4") for a in names])
+    rec[:] = list(map(tuple, table))  # as save_ply fills its structured array
+    path = os.path.join(out, "gaussians", "mip_splatting.ply")
+    plyfile.PlyData([plyfile.PlyElement.describe(rec, "vertex")]).write(path)
+    back = plyfile.PlyData.read(path)["vertex"].data
+    assert all(np.array_equal(back[a], rec[a]) for a in names)
+    # the renderer's values (float64 here)
+    s = np.exp(scale.astype(np.float64))
+    f = filter_3d.astype(np.float64)
+    s2 = s * s + f * f
+    eff_scales = np.sqrt(s2)
+    coef = np.sqrt(np.prod(s * s, axis=1) / np.prod(s2, axis=1))
+    eff_opacity = 1.0 / (1.0 + np.exp(-opacity[:, 0].astype(np.float64))) * coef
+    doc = {
+        "writer": f"plyfile {ver}",
+        "n": n,
+        "sh_degree": 3,
+        "property_order": names,
+        "means": rows(xyz),
+        "opacity_logits": [float(x) for x in opacity.flatten()],
+        "log_scales": rows(scale),
+        "filter_3D": [float(x) for x in filter_3d.flatten()],
+        "effective_scales": rows(eff_scales),
+        "effective_opacities": [float(x) for x in eff_opacity],
+        "note": "effective_* are get_scaling_with_3D_filter / get_opacity_with_3D_filter in float64",
+    }
+    with open(os.path.join(out, "gaussians", "mip_splatting.json"), "w") as fh:
+        json.dump(doc, fh, separators=(",", ":"))
+        fh.write("\n")
+    for f_name, what in [
+        ("gaussians/mip_splatting.ply", "Mip-Splatting / GOF PLY as their save_ply: 60 Gaussians, SH degree 3, "
+                                        "3DGS properties + filter_3D, float32, binary little-endian"),
+        ("gaussians/mip_splatting.json", "its values and the scales/opacities the Mip-Splatting renderer draws "
+                                         "(NumPy float64), for tests/filter3d.rs"),
+    ]:
+        readme.append((f_name, f"plyfile.PlyData.write (plyfile {ver})" if f_name.endswith(".ply")
+                       else f"json, values from NumPy {np.__version__}", what))
+    return f"plyfile {ver}"
+
+
 def pt_files(out, readme):
     sys.path.insert(0, HERE)
     import make_pt_fixtures
@@ -626,7 +702,30 @@ def pt_files(out, readme):
     return f"PyTorch {ver}"
 
 
+def mip_filter_reference_file(out, readme):
+    """render/mip_filter_reference.json by scripts/compare/mip_filter_reference.py."""
+    sys.path.insert(0, os.path.join(HERE, "compare"))
+    import mip_filter_reference
+
+    os.makedirs(os.path.join(out, "render"), exist_ok=True)
+    assert mip_filter_reference.main([os.path.join(out, "render", "mip_filter_reference.json")]) == 0
+    readme.append(("render/mip_filter_reference.json",
+                   f"json, values from NumPy {np.__version__} (float32)",
+                   "32×24 RGB and alpha of 14 Gaussians under the 2-D Mip filter (kernel 0.1 and 0.0), "
+                   "from the Mip-Splatting / GOF CUDA rules, for tests/mip_filter.rs",
+                   "scripts/compare/mip_filter_reference.py"))
+
+
 def main(argv):
+    if argv and argv[0] == "--only-mip":
+        # only the Mip-Splatting / GOF PLY and its JSON (needs numpy, plyfile)
+        out = argv[1] if len(argv) > 1 else os.path.join(ROOT, "testdata")
+        os.makedirs(os.path.join(out, "gaussians"), exist_ok=True)
+        readme = []
+        mip_gaussians_file(out, {}, readme)
+        for entry in readme:
+            print(f"- `{entry[0]}` — `scripts/make_fixtures.py` — {entry[1]} — {entry[2]}")
+        return 0
     out = argv[0] if argv else os.path.join(ROOT, "testdata")
     for d in ["mat", "npz", "mesh", "colmap", "gaussians", "pt"]:
         os.makedirs(os.path.join(out, d), exist_ok=True)
@@ -638,7 +737,9 @@ def main(argv):
     tools.append(pymeshlab_files(out, exp, readme))
     tools.append(colmap_files(out, exp, readme))
     tools.append(gaussians_file(out, exp, readme))
+    mip_gaussians_file(out, exp, readme)
     tools.append(pt_files(out, readme))
+    mip_filter_reference_file(out, readme)
     with open(os.path.join(out, "expected.json"), "w") as f:
         json.dump({"tools": tools, "files": exp, "arrays": ARRAYS}, f, separators=(",", ":"))
         f.write("\n")

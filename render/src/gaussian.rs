@@ -89,6 +89,46 @@ impl Gaussians3 {
     }
 }
 
+/// The screen-space (2-D) filter added to each projected covariance Σ'.
+///
+/// Used by the Gaussian rasteriser only (the triangle and mesh rasterisers
+/// ignore it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Filter2d {
+    /// 3DGS's low-pass dilation: Σ' + v·I (pixels², 3DGS: 0.3), opacity
+    /// unchanged. The default.
+    Dilate(f64),
+    /// The 2-D Mip filter of Mip-Splatting and Gaussian Opacity Fields
+    /// (their rasterisers' `kernel_size`, pixels²; Mip-Splatting's default
+    /// 0.1, GOF's 0.0): Σ' + k·I, and the opacity multiplied by
+    /// coef = √(det₀ / (det₁ + 1e-6) + 1e-6), with det₀ = max(1e-6, det Σ')
+    /// before and det₁ = max(1e-6, det(Σ' + k·I)) after the dilation;
+    /// coef = 0 (the Gaussian is not drawn) where either determinant is at
+    /// most 1e-6 before the clamp. These are their CUDA `computeCov2D`'s
+    /// rules, evaluated here in f64.
+    Mip {
+        /// The dilation k, pixels².
+        kernel_size: f64,
+    },
+}
+
+impl Default for Filter2d {
+    fn default() -> Self {
+        Filter2d::Dilate(0.3)
+    }
+}
+
+impl Filter2d {
+    /// The value added to the diagonal of the projected covariance.
+    #[inline]
+    pub fn kernel(self) -> f64 {
+        match self {
+            Filter2d::Dilate(v) => v,
+            Filter2d::Mip { kernel_size } => kernel_size,
+        }
+    }
+}
+
 /// Rasteriser settings.
 #[derive(Clone, Copy, Debug)]
 pub struct RasterSettings {
@@ -96,6 +136,9 @@ pub struct RasterSettings {
     pub background: [f32; 3],
     /// Near plane (camera z), Gaussians at or before it are culled.
     pub near: f64,
+    /// The screen-space filter of the Gaussian rasteriser (default: 3DGS's
+    /// 0.3 dilation).
+    pub filter_2d: Filter2d,
 }
 
 impl Default for RasterSettings {
@@ -103,6 +146,7 @@ impl Default for RasterSettings {
         RasterSettings {
             background: [0.0; 3],
             near: 0.2,
+            filter_2d: Filter2d::default(),
         }
     }
 }
@@ -203,6 +247,9 @@ pub(crate) struct ProjectedT<T> {
     /// Camera-space normal facing the camera: the shortest axis (the choice
     /// and the flip are made on the values, so they carry no derivative).
     pub normal: [T; 3],
+    /// The factor the opacity is multiplied by: 1 for [`Filter2d::Dilate`],
+    /// the determinant ratio's coef for [`Filter2d::Mip`].
+    pub coef: T,
 }
 
 /// The rotation matrix R[row][col] of a unit quaternion (w, x, y, z) (the
@@ -289,16 +336,21 @@ pub(crate) fn project_t<T: Real>(
         std::array::from_fn(|c| j0[0] * rows[0][c] + j0[1] * rows[1][c] + j0[2] * rows[2][c]);
     let jw1: [T; 3] =
         std::array::from_fn(|c| j1[0] * rows[0][c] + j1[1] * rows[1][c] + j1[2] * rows[2][c]);
-    // A = J W R_q S (2×3); Σ' = A Aᵀ + 0.3 I
+    // A = J W R_q S (2×3); Σ' = A Aᵀ + k I (k: the 2-D filter, 3DGS 0.3)
     let a0: [T; 3] = std::array::from_fn(|c| {
         (jw0[0] * rq[0][c] + jw0[1] * rq[1][c] + jw0[2] * rq[2][c]) * scale[c]
     });
     let a1: [T; 3] = std::array::from_fn(|c| {
         (jw1[0] * rq[0][c] + jw1[1] * rq[1][c] + jw1[2] * rq[2][c]) * scale[c]
     });
-    let ca = dot3(a0, a0) + 0.3;
-    let cb = dot3(a0, a1);
-    let cc = dot3(a1, a1) + 0.3;
+    let k = s.filter_2d.kernel();
+    let (ca0, cb, cc0) = (dot3(a0, a0), dot3(a0, a1), dot3(a1, a1));
+    let ca = ca0 + k;
+    let cc = cc0 + k;
+    let coef = match s.filter_2d {
+        Filter2d::Dilate(_) => one,
+        Filter2d::Mip { .. } => mip_coef(ca0, cb, cc0, ca, cc),
+    };
     let det = ca * cc - cb * cb;
     if det.val().is_nan() || det.val() <= 0.0 {
         return None;
@@ -336,7 +388,21 @@ pub(crate) fn project_t<T: Real>(
         radius,
         cov_diag: [ca.val(), cc.val()],
         normal,
+        coef,
     })
+}
+
+/// The opacity factor of the 2-D Mip filter (see [`Filter2d::Mip`]) from
+/// the projected covariance before (`ca0`, `cb`, `cc0`) and after (`ca`,
+/// `cb`, `cc`) the dilation: √(det₀/(det₁ + 1e-6) + 1e-6), 0 where a
+/// determinant is at most 1e-6 (the CUDA clamps then give 0 as well).
+pub(crate) fn mip_coef<T: Real>(ca0: T, cb: T, cc0: T, ca: T, cc: T) -> T {
+    let det0 = ca0 * cc0 - cb * cb;
+    let det1 = ca * cc - cb * cb;
+    if !(det0.val() > 1e-6 && det1.val() > 1e-6) {
+        return T::cst(0.0);
+    }
+    (det0 / (det1 + 1e-6) + 1e-6).sqrt()
 }
 
 /// Projects one Gaussian (the 3DGS preprocess step); `None` when culled.
@@ -363,7 +429,10 @@ fn project_with(
         rows,
         s,
     )?;
-    let op = g.opacities[i];
+    let op = match s.filter_2d {
+        Filter2d::Dilate(_) => g.opacities[i],
+        Filter2d::Mip { .. } => (g.opacities[i] as f64 * p.coef) as f32,
+    };
     // o·G ≥ 1/255 ⇔ dᵀΣ'⁻¹d ≤ 2·ln(255·o); nothing is drawn when o < 1/255
     if op.is_nan() || op * 255.0 < 1.0 {
         return None;
@@ -1035,7 +1104,7 @@ mod tests {
         // any pixel order and with a background blended in
         let s2 = RasterSettings {
             background: [0.2, 0.5, 0.9],
-            near: s.near,
+            ..s
         };
         let full = render(&g, &cam, &s2).rgb;
         let mut order: Vec<u32> = (0..80 * 56).rev().step_by(3).collect();

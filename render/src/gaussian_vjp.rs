@@ -16,13 +16,17 @@
 //!
 //! Chain, forward: t = W μ + T (camera space); q̂ = q/|q|, R = R(q̂);
 //! J = [[fx/z, 0, −fx·u_x/z], [0, fy/z, −fy·u_y/z]] with u = clamp(t_xy/z);
-//! A = J W R S (2×3); Σ' = A Aᵀ + 0.3 I = [[a, b], [b, c]];
-//! conic = (c, −b, a)/det; pixel mean = (fx t_x/z + cx, fy t_y/z + cy);
-//! depth = t_z; normal = ±W R e_k (k the shortest axis).
+//! A = J W R S (2×3); Σ' = A Aᵀ + k I = [[a, b], [b, c]] (k the 2-D
+//! filter's dilation, 3DGS 0.3); conic = (c, −b, a)/det; pixel mean =
+//! (fx t_x/z + cx, fy t_y/z + cy); depth = t_z; normal = ±W R e_k (k the
+//! shortest axis); with the 2-D Mip filter the drawn opacity is o·coef(Σ'),
+//! coef = √(det₀/(det₁ + 1e-6) + 1e-6) ([`crate::gaussian::Filter2d::Mip`]),
+//! whose gradient reaches the covariance (exactly: the CUDA backward's
+//! extra 1e-6 terms are not copied).
 
 use crate::Camera;
 use crate::dual::sh_basis;
-use crate::gaussian::quat_matrix;
+use crate::gaussian::{Filter2d, quat_matrix};
 
 /// ∂L/∂ of the projected geometry of one Gaussian.
 #[derive(Clone, Copy, Debug, Default)]
@@ -35,21 +39,27 @@ pub(crate) struct ScreenGrad {
     pub depth: f64,
     /// Camera-space normal (the shortest axis facing the camera).
     pub normal: [f64; 3],
+    /// The opacity the pixels blend (o·coef with the Mip filter, o else).
+    pub opacity: f64,
 }
 
-/// ∂L/∂(mean, scale, quaternion) as 10 numbers (mean 0–2, scales 3–5,
-/// quaternion 6–9) for the Gaussian (`mean`, `scale` in world units,
-/// `quat` (w, x, y, z) any length), seen by `cam` whose world-to-camera
-/// rotation rows are `rows`. The Gaussian is assumed not culled (it is in
-/// the forward pass's projected list).
+/// ∂L/∂(mean, scale, quaternion, opacity) as 11 numbers (mean 0–2, scales
+/// 3–5, quaternion 6–9, opacity 10) for the Gaussian (`mean`, `scale` in
+/// world units, `quat` (w, x, y, z) any length, `opacity` activated), seen
+/// by `cam` whose world-to-camera rotation rows are `rows`, under the 2-D
+/// filter `filter`. The Gaussian is assumed not culled (it is in the
+/// forward pass's projected list).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn geometry_vjp(
     mean: [f32; 3],
     scale: [f32; 3],
     quat: [f32; 4],
+    opacity: f32,
+    filter: Filter2d,
     cam: &Camera,
     rows: &[[f64; 3]; 3],
     gs: &ScreenGrad,
-) -> [f64; 10] {
+) -> [f64; 11] {
     let m = mean.map(f64::from);
     let sc = scale.map(f64::from);
     let q = quat.map(f64::from);
@@ -95,18 +105,37 @@ pub(crate) fn geometry_vjp(
     let a0: [f64; 3] = std::array::from_fn(|c| b0[c] * sc[c]);
     let a1: [f64; 3] = std::array::from_fn(|c| b1[c] * sc[c]);
     let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    let ca = dot(a0, a0) + 0.3;
-    let cb = dot(a0, a1);
-    let cc = dot(a1, a1) + 0.3;
+    let k = filter.kernel();
+    let (ca0, cb, cc0) = (dot(a0, a0), dot(a0, a1), dot(a1, a1));
+    let ca = ca0 + k;
+    let cc = cc0 + k;
     let det = ca * cc - cb * cb;
 
     // conic = (cc, −cb, ca)/det
     let [g0, g1, g2] = gs.conic;
     let inv_det = 1.0 / det;
     let g_det = -(g0 * cc - g1 * cb + g2 * ca) * inv_det * inv_det;
-    let g_ca = g2 * inv_det + g_det * cc;
-    let g_cc = g0 * inv_det + g_det * ca;
-    let g_cb = -g1 * inv_det - 2.0 * g_det * cb;
+    let mut g_ca = g2 * inv_det + g_det * cc;
+    let mut g_cc = g0 * inv_det + g_det * ca;
+    let mut g_cb = -g1 * inv_det - 2.0 * g_det * cb;
+    // drawn opacity o·coef: ∂/∂o, and ∂/∂coef through det₀ and det₁
+    let mut g_opacity = gs.opacity;
+    if let Filter2d::Mip { .. } = filter {
+        let det0 = ca0 * cc0 - cb * cb;
+        if det0 > 1e-6 && det > 1e-6 {
+            let d1 = det + 1e-6;
+            let coef = (det0 / d1 + 1e-6).sqrt();
+            g_opacity = gs.opacity * coef;
+            let g_r = gs.opacity * f64::from(opacity) * 0.5 / coef;
+            let (g_det0, g_det1) = (g_r / d1, -g_r * det0 / (d1 * d1));
+            // ∂/∂ca0 = ∂/∂ca (ca = ca0 + k), likewise cc
+            g_ca += g_det0 * cc0 + g_det1 * cc;
+            g_cc += g_det0 * ca0 + g_det1 * ca;
+            g_cb -= 2.0 * cb * (g_det0 + g_det1);
+        } else {
+            g_opacity = 0.0;
+        }
+    }
     let g_a0: [f64; 3] = std::array::from_fn(|c| 2.0 * g_ca * a0[c] + g_cb * a1[c]);
     let g_a1: [f64; 3] = std::array::from_fn(|c| 2.0 * g_cc * a1[c] + g_cb * a0[c]);
     let g_sc: [f64; 3] = std::array::from_fn(|c| g_a0[c] * b0[c] + g_a1[c] * b1[c]);
@@ -146,7 +175,8 @@ pub(crate) fn geometry_vjp(
         g_row[k] += sign * (0..3).map(|i| rows[i][r] * gs.normal[i]).sum::<f64>();
     }
 
-    let mut out = [0.0f64; 10];
+    let mut out = [0.0f64; 11];
+    out[10] = g_opacity;
     for c in 0..3 {
         out[c] = rows[0][c] * g_t[0] + rows[1][c] * g_t[1] + rows[2][c] * g_t[2];
         out[3 + c] = g_sc[c];
@@ -270,25 +300,35 @@ mod tests {
     use super::*;
     use crate::dual::{Dual, sh_rgb};
     use crate::gaussian::{RasterSettings, project_t, rotation_rows};
+
+    const N: usize = 11;
     use crate::testutil::{Lcg, random_sh, test_camera};
 
-    /// The Dual<10> Jacobian of `project_t` contracted with `gs`: the
-    /// oracle the hand-written sweep must equal.
+    /// The Dual<11> Jacobian of `project_t` (and of the drawn opacity
+    /// o·coef) contracted with `gs`: the oracle the hand-written sweep must
+    /// equal.
+    #[allow(clippy::too_many_arguments)]
     fn dual_vjp(
         mean: [f32; 3],
         scale: [f32; 3],
         quat: [f32; 4],
+        opacity: f32,
+        filter: Filter2d,
         cam: &Camera,
         gs: &ScreenGrad,
-    ) -> Option<[f64; 10]> {
+    ) -> Option<[f64; N]> {
         let rows = rotation_rows(cam);
-        let mean_d: [Dual<10>; 3] = std::array::from_fn(|k| Dual::var(mean[k] as f64, k));
-        let scale_d: [Dual<10>; 3] = std::array::from_fn(|k| Dual::var(scale[k] as f64, 3 + k));
-        let quat_d: [Dual<10>; 4] = std::array::from_fn(|k| Dual::var(quat[k] as f64, 6 + k));
-        let s = RasterSettings::default();
+        let mean_d: [Dual<N>; 3] = std::array::from_fn(|k| Dual::var(mean[k] as f64, k));
+        let scale_d: [Dual<N>; 3] = std::array::from_fn(|k| Dual::var(scale[k] as f64, 3 + k));
+        let quat_d: [Dual<N>; 4] = std::array::from_fn(|k| Dual::var(quat[k] as f64, 6 + k));
+        let op_d: Dual<N> = Dual::var(opacity as f64, 10);
+        let s = RasterSettings {
+            filter_2d: filter,
+            ..Default::default()
+        };
         let p = project_t(mean_d, scale_d, quat_d, None, 0, cam, &rows, &s)?;
-        let mut g = [0.0f64; 10];
-        let mut add = |v: &Dual<10>, w: f64| {
+        let mut g = [0.0f64; N];
+        let mut add = |v: &Dual<N>, w: f64| {
             for (gk, dk) in g.iter_mut().zip(v.d) {
                 *gk += dk * w;
             }
@@ -300,6 +340,7 @@ mod tests {
             add(&p.normal[k], gs.normal[k]);
         }
         add(&p.depth, gs.depth);
+        add(&(op_d * p.coef), gs.opacity);
         Some(g)
     }
 
@@ -309,10 +350,22 @@ mod tests {
 
     /// 2,000 random Gaussians (some far to the side, so the x/z or y/z
     /// clamp is active; some with unnormalised quaternions; random screen
-    /// gradients): the hand-written sweep equals the Dual<10> Jacobian to
-    /// 1e-9 of the largest entry (both are f64; only rounding differs).
+    /// gradients), under 3DGS's dilation and under the 2-D Mip filter
+    /// (Mip-Splatting's 0.1, GOF's 0.0): the hand-written sweep equals the
+    /// Dual<11> Jacobian to 1e-9 of the largest entry (both are f64; only
+    /// rounding differs).
     #[test]
     fn geometry_matches_dual_numbers() {
+        for filter in [
+            Filter2d::default(),
+            Filter2d::Mip { kernel_size: 0.1 },
+            Filter2d::Mip { kernel_size: 0.0 },
+        ] {
+            geometry_matches_dual_numbers_with(filter);
+        }
+    }
+
+    fn geometry_matches_dual_numbers_with(filter: Filter2d) {
         let cam = test_camera(64, 48, 60.0);
         let rows = rotation_rows(&cam);
         let mut r = Lcg(77);
@@ -346,8 +399,10 @@ mod tests {
                     r.range(-1.0, 1.0) as f64,
                     r.range(-1.0, 1.0) as f64,
                 ],
+                opacity: r.range(-1.0, 1.0) as f64,
             };
-            let Some(want) = dual_vjp(mean, scale, quat, &cam, &gs) else {
+            let opacity = r.range(0.05, 1.0);
+            let Some(want) = dual_vjp(mean, scale, quat, opacity, filter, &cam, &gs) else {
                 continue;
             };
             tested += 1;
@@ -355,12 +410,12 @@ mod tests {
             if (mean[0] / zc).abs() as f64 > lx || (mean[1] / zc).abs() as f64 > ly {
                 clamped += 1;
             }
-            let got = geometry_vjp(mean, scale, quat, &cam, &rows, &gs);
+            let got = geometry_vjp(mean, scale, quat, opacity, filter, &cam, &rows, &gs);
             let big = want.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-            for k in 0..10 {
+            for k in 0..N {
                 assert!(
                     close(got[k], want[k], big),
-                    "Gaussian {i}, entry {k}: {} vs Dual {}",
+                    "{filter:?}: Gaussian {i}, entry {k}: {} vs Dual {}",
                     got[k],
                     want[k]
                 );

@@ -6,6 +6,7 @@ pub mod attributes;
 pub mod bound;
 pub mod camera;
 pub mod crop;
+pub mod filter3d;
 pub mod finite;
 pub mod gaussians;
 pub mod mask;

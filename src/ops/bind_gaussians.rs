@@ -152,7 +152,9 @@ fn rebind_file(
     args: &BindGaussiansArgs,
     edited: &Path,
 ) -> anyhow::Result<(BoundGaussians, serde_json::Value)> {
-    let (b, _) = load_bound(&args.input, "bind-gaussians --rebind")?;
+    let (b, g) = load_bound(&args.input, "bind-gaussians --rebind")?;
+    crate::model::filter3d::refuse_filter_3d(&g, "bind-gaussians --rebind")
+        .map_err(|e| e.in_file(shown(&args.input, false)))?;
     let mesh = load_mesh_finite(edited, "bind-gaussians --rebind")?;
     let rule = match args.scale_rule {
         ScaleRuleArg::MeanSide => ScaleRule::MeanSide,
@@ -195,6 +197,10 @@ fn bind_mesh(args: &BindGaussiansArgs) -> anyhow::Result<(BoundGaussians, serde_
     };
     if let Some(src) = &args.colors_from {
         let g = load_gaussians_finite(src, "bind-gaussians --colors-from")?;
+        // the source's weights use its opacities and scales: those its
+        // renderer draws when it carries Mip-Splatting's filter_3D
+        let g =
+            crate::model::filter3d::bake_filter_3d(&g).map_err(|e| e.in_file(shown(src, false)))?;
         let at: Vec<[f64; 3]> = (0..b.len()).map(|i| mean_of(&b, i)).collect();
         b.sh_dc = dc_from_gaussians(&at, &g)
             .with_context(|| format!("colours from {}", shown(src, false)))?;

@@ -322,6 +322,7 @@ fn render_side_by_side(
     let s = RasterSettings {
         background: [1.0; 3],
         near: 0.2,
+        ..Default::default()
     };
     let splats = gaussian::render(&scene.g, view, &s);
     let z = splatkit_render::mesh::render(&mesh.vertices, &mesh.faces, view, 0.2);

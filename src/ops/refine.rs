@@ -227,10 +227,18 @@ fn load_model(args: &RefineArgs) -> anyhow::Result<(BoundGaussians, Option<check
             let ck = dir.join(checkpoint::DIR);
             // The run advances this checkpoint (often in the same output folder).
             crate::io::transaction::note_replaceable(&ck);
-            let (b, _) = load_bound(&ck.join(checkpoint::MODEL), "refine --resume")?;
+            let model = ck.join(checkpoint::MODEL);
+            let (b, g) = load_bound(&model, "refine --resume")?;
+            crate::model::filter3d::refuse_filter_3d(&g, "refine")
+                .map_err(|e| e.in_file(shown(&model, false)))?;
             (b, Some(checkpoint::read(dir)?))
         }
-        None => (load_bound(&args.bound, "refine")?.0, None),
+        None => {
+            let (b, g) = load_bound(&args.bound, "refine")?;
+            crate::model::filter3d::refuse_filter_3d(&g, "refine")
+                .map_err(|e| e.in_file(shown(&args.bound, false)))?;
+            (b, None)
+        }
     };
     if let (Some(m), None) = (&args.mesh, &args.resume) {
         let mesh = load_mesh_finite(m, "refine")?;

@@ -16,10 +16,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use serde_json::json;
-use splatkit_render::gaussian::{self, RasterSettings, RenderOutput};
+use splatkit_render::gaussian::{self, Filter2d, RasterSettings, RenderOutput};
 use splatkit_render::loss::{psnr, ssim};
 use splatkit_render::{mesh as zbuffer, triangle};
 
+use crate::cli::filter2d::Filter2dArgs;
 use crate::cli::orbit::{OrbitArgs, SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, nonneg_f64, positive_f64, shown, usage};
 use crate::geom::scenes::orbit::orbit_rings;
@@ -96,6 +97,8 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0.2, value_parser = nonneg_f64)]
     pub near: f64,
     #[command(flatten)]
+    pub filter: Filter2dArgs,
+    #[command(flatten)]
     pub orbit: OrbitArgs,
     /// Folder of ground-truth PNGs named after the cameras: report PSNR and
     /// SSIM of each colour render against them.
@@ -163,19 +166,31 @@ pub fn render_bytes(largest_pixels: u64, compare: bool) -> u64 {
     largest_pixels.saturating_mul(per)
 }
 
-/// The scene file, through the common loader, ready to rasterise.
-fn load_scene(path: &Path) -> anyhow::Result<Raster> {
+/// The scene file, through the common loader, ready to rasterise, and the
+/// 2-D filter for Gaussians: a `filter_3D` property (Mip-Splatting, GOF)
+/// is baked into the scales and opacities here
+/// ([`model::filter3d::baked_for_rendering`]) and picks the Mip filter
+/// under `--filter-2d auto`.
+fn load_scene(path: &Path, filter: &Filter2dArgs) -> anyhow::Result<(Raster, Filter2d)> {
     let accepts = [
         SceneKind::Gaussians,
         SceneKind::TriangleSoup,
         SceneKind::Mesh,
     ];
-    Ok(match any::load_kinds(path, "render", &accepts)? {
-        model::Scene::Gaussians(g) => Raster::Gaussians(g.to_raster()),
+    let mut filtered = false;
+    let scene = match any::load_kinds(path, "render", &accepts)? {
+        model::Scene::Gaussians(g) => {
+            let (g, f) = model::filter3d::baked_for_rendering(g)
+                .map_err(|e| e.in_file(&shown(path, false)))?;
+            filtered = f;
+            Raster::Gaussians(g.to_raster())
+        }
         model::Scene::TriangleSoup(t) => Raster::Triangles(t.to_raster()),
         model::Scene::Mesh(m) => Raster::Mesh(m),
         model::Scene::PointCloud(_) => unreachable!("load_kinds returns an accepted kind"),
-    })
+    };
+    let f = model::filter3d::choose_filter_2d(filter.choice(), filter.kernel_size, filtered);
+    Ok((scene, f))
 }
 
 /// A file-name stem for a camera: its name without folders or extension.
@@ -383,7 +398,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.output.display()))?;
     let orbit = orbit_spec(&args)?;
     let t0 = std::time::Instant::now();
-    let scene = load_render_scene(&args)?;
+    let (scene, filter_2d) = load_render_scene(&args)?;
     let cams = render_cameras(&args, &scene, orbit.as_ref())?;
     // Every ground-truth image is found before anything is rendered or
     // written, so a missing one cannot leave the output folder half-replaced.
@@ -401,9 +416,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         // keep the made-up views so other scenes can be rendered from them
         crate::io::cameras::write_gs_json(&staged.path().join("cameras.json"), &cams)?;
     }
-    let rendered = render_views(&args, &scene, &cams, &gt_paths, staged.path())?;
+    let rendered = render_views(&args, &scene, filter_2d, &cams, &gt_paths, staged.path())?;
     staged.commit()?;
-    report(&args, &scene, cams.len(), &rendered, t0)
+    report(&args, &scene, filter_2d, cams.len(), &rendered, t0)
 }
 
 /// The usage errors among `--outputs`, `--background` and
@@ -450,8 +465,8 @@ fn orbit_spec(args: &RenderArgs) -> anyhow::Result<Option<model::OrbitSpec>> {
 /// The scene, ready to rasterise: an error when it holds no primitive (the
 /// images would show the background only); a note when a mesh has texture
 /// coordinates but no texture image.
-fn load_render_scene(args: &RenderArgs) -> anyhow::Result<Raster> {
-    let scene = load_scene(&args.scene)
+fn load_render_scene(args: &RenderArgs) -> anyhow::Result<(Raster, Filter2d)> {
+    let (scene, filter_2d) = load_scene(&args.scene, &args.filter)
         .with_context(|| format!("reading {}", shown(&args.scene, false)))?;
     // Images of nothing but the background are not a render of the scene.
     if scene.len() == 0 {
@@ -471,7 +486,7 @@ fn load_render_scene(args: &RenderArgs) -> anyhow::Result<Raster> {
             shown(&args.scene, false)
         ));
     }
-    Ok(scene)
+    Ok((scene, filter_2d))
 }
 
 /// The cameras to render from: the camera file's, or the `orbit` around
@@ -523,6 +538,7 @@ struct Rendered {
 fn render_views(
     args: &RenderArgs,
     scene: &Raster,
+    filter_2d: Filter2d,
     cams: &[Camera],
     gt_paths: &[Option<PathBuf>],
     out_dir: &Path,
@@ -530,6 +546,7 @@ fn render_views(
     let s = RasterSettings {
         background: [args.background[0], args.background[1], args.background[2]],
         near: args.near,
+        filter_2d,
     };
     let depth_ratio = match (args.depth_ratio, args.depth) {
         (Some(r), _) => r as f32,
@@ -602,6 +619,7 @@ fn compare_view(gt_path: &Path, cam: &Camera, out: &RenderOutput) -> anyhow::Res
 fn report(
     args: &RenderArgs,
     scene: &Raster,
+    filter_2d: Filter2d,
     n_cams: usize,
     r: &Rendered,
     t0: std::time::Instant,
@@ -615,6 +633,9 @@ fn report(
         "output": args.output.display().to_string(),
         "seconds": t0.elapsed().as_secs_f64(),
     });
+    if let Raster::Gaussians(_) = scene {
+        report["filter_2d"] = json!(model::filter3d::filter_2d_label(filter_2d));
+    }
     if args.compare.is_some() {
         report["mean_psnr"] = json!(r.psnr_sum / n);
         report["mean_ssim"] = json!(r.ssim_sum / n);

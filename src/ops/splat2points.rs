@@ -8,6 +8,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
+use crate::cli::filter2d::Filter2dArgs;
 use crate::cli::orbit::{OrbitArgs, SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, fraction_f32, nonneg_f64, shown, usage};
 use crate::geom::scenes::orbit::orbit_rings;
@@ -17,7 +18,7 @@ use crate::io::any::{load_gaussians, save_points};
 use crate::io::cameras::read_cameras;
 use crate::io::ply::Format;
 use crate::model::{Camera, OrbitSpec};
-use splatkit_render::gaussian::Gaussians3;
+use splatkit_render::gaussian::{Filter2d, Gaussians3};
 
 /// How points are made.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -120,6 +121,8 @@ pub struct Splat2PointsArgs {
     /// (`--orbit N`; no views are held out).
     #[command(flatten)]
     pub orbit: OrbitArgs,
+    #[command(flatten)]
+    pub filter: Filter2dArgs,
     #[command(flatten)]
     pub common: Common,
 }
@@ -241,8 +244,17 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let (scene, cam_path, orbit) = resolve_inputs(&args)?;
     let g = load_gaussians(&scene, "splat2points")
-        .with_context(|| format!("reading {}", shown(&scene, false)))?
-        .to_raster();
+        .with_context(|| format!("reading {}", shown(&scene, false)))?;
+    // a `filter_3D` property (Mip-Splatting, GOF) is baked into the scales
+    // and opacities, and picks the Mip filter under `--filter-2d auto`
+    let (g, filtered) = crate::model::filter3d::baked_for_rendering(g)
+        .map_err(|e| e.in_file(shown(&scene, false)))?;
+    let g = g.to_raster();
+    let filter_2d = crate::model::filter3d::choose_filter_2d(
+        args.filter.choice(),
+        args.filter.kernel_size,
+        filtered,
+    );
     let views = sample_cameras(&args, &g, cam_path.as_deref(), orbit.as_ref())?;
     check_seen(&args, &g, &views, &scene)?;
     let pb = args.common.progress(views.cams.len() as u64, "views");
@@ -254,6 +266,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
             depth: args.depth.source(),
             seed: args.seed,
             near: args.near,
+            filter_2d,
             ..Default::default()
         }),
         Method::Centers => PointMethod::Centers {
@@ -264,6 +277,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
             max_points: args.max_points,
             seed: args.seed,
             near: args.near,
+            filter_2d,
         },
     };
     let points = splat_to_points(&g, &views.cams, &method, |_| pb.inc(1))?;
@@ -274,7 +288,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     }
     let pc = to_point_cloud(points, args.provenance);
     save_points(&args.output, &pc, Format::BinaryLittleEndian)?;
-    report(&args, &scene, &g, &views, n, t0)
+    report(&args, &scene, &g, filter_2d, &views, n, t0)
 }
 
 /// The scene's Gaussian PLY, the camera file (`--cameras`, else a model
@@ -448,6 +462,7 @@ fn report(
     args: &Splat2PointsArgs,
     scene: &Path,
     g: &Gaussians3,
+    filter_2d: Filter2d,
     views: &Views,
     n: usize,
     t0: std::time::Instant,
@@ -471,6 +486,7 @@ fn report(
         "method": format!("{:?}", args.method).to_lowercase(),
         "depth": (args.method == Method::Levelset).then(|| format!("{:?}", args.depth).to_lowercase()),
         "levels": args.level,
+        "filter_2d": crate::model::filter3d::filter_2d_label(filter_2d),
         "output": shown(&args.output, true),
         "seconds": t0.elapsed().as_secs_f64(),
     }))?;

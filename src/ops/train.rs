@@ -750,6 +750,8 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
             let ck = read_checkpoint(dir, "gaussians")?;
             let evals = check_resume(&ck, &settings, dir)?;
             let g = load_gaussians_finite(&ck.model, "train gaussians --resume")?;
+            crate::model::filter3d::refuse_filter_3d(&g, "train")
+                .map_err(|e| e.in_file(shown(&ck.model, false)))?;
             let mut t = GaussianTrainer::new(g, params);
             t.restore(ck.step, ck.groups)
                 .map_err(|m| anyhow::anyhow!("{}: {m}", dir.display()))?;

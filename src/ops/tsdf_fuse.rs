@@ -14,6 +14,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde_json::json;
 
+use crate::cli::filter2d::Filter2dArgs;
 use crate::cli::orbit::{SizeFrom, check_image_budget, image_bytes, largest_size};
 use crate::cli::{Common, positive_f64, shown, unit_f64, usage};
 use crate::geom::meshing::tsdf::{
@@ -26,6 +27,7 @@ use crate::io::cameras::read_cameras;
 use crate::io::depth::{find_depth, find_image, read_depth, read_mask_values, read_rgb8};
 use crate::io::detect::FileFormat;
 use crate::model::{self, Camera, Mesh, SceneKind, rig};
+use splatkit_render::gaussian::Filter2d;
 
 /// Arguments of `tsdf-fuse`.
 #[derive(Args, Debug, Clone)]
@@ -109,6 +111,8 @@ pub struct TsdfFuseArgs {
     /// Near plane of the renders (camera z).
     #[arg(long, default_value_t = 0.2, value_parser = crate::cli::nonneg_f64)]
     pub near: f64,
+    #[command(flatten)]
+    pub filter: Filter2dArgs,
     #[command(flatten)]
     pub common: Common,
 }
@@ -226,7 +230,7 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
     let (params, how, bounds) = plan(&args, &cams)?;
     // the DTU recipe's ratio, 1, is also the default
     let depth_ratio = args.depth_ratio as f32;
-    let scene = load_fusion_scene(&args)?;
+    let (scene, filter_2d) = load_fusion_scene(&args)?;
     let with_color = !args.no_color
         && match &scene {
             Some(s) => s.has_color(),
@@ -241,6 +245,7 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
         bounds,
         with_color,
         depth_ratio,
+        filter_2d,
     };
     let mut fused = fuse(&args, &setup)?;
     let raw = (fused.mesh.vertices.len(), fused.mesh.faces.len());
@@ -379,13 +384,16 @@ fn plan(args: &TsdfFuseArgs, cams: &[Camera]) -> anyhow::Result<(TsdfParams, Str
     Ok((p, "unbounded".to_string(), b))
 }
 
-/// The scene to render depth from, if one was given; an error when it
-/// holds no primitive (every depth map would be empty, so nothing can be
-/// fused).
-fn load_fusion_scene(args: &TsdfFuseArgs) -> anyhow::Result<Option<FusionScene>> {
-    let scene = match &args.scene {
-        Some(p) => Some(load_scene(p)?),
-        None => None,
+/// The scene to render depth from, if one was given, and the Gaussian
+/// rasteriser's 2-D filter; an error when it holds no primitive (every
+/// depth map would be empty, so nothing can be fused).
+fn load_fusion_scene(args: &TsdfFuseArgs) -> anyhow::Result<(Option<FusionScene>, Filter2d)> {
+    let (scene, filter_2d) = match &args.scene {
+        Some(p) => {
+            let (sc, f) = load_scene(p, &args.filter)?;
+            (Some(sc), f)
+        }
+        None => (None, Filter2d::default()),
     };
     if let (Some(p), Some(sc)) = (&args.scene, &scene) {
         let n = match sc {
@@ -397,7 +405,7 @@ fn load_fusion_scene(args: &TsdfFuseArgs) -> anyhow::Result<Option<FusionScene>>
             bail!("{}: holds no primitives: nothing to fuse", shown(p, false));
         }
     }
-    Ok(scene)
+    Ok((scene, filter_2d))
 }
 
 /// Everything [`fuse`] and [`report`] take besides the flags: the
@@ -412,6 +420,8 @@ struct FuseSetup<'a> {
     bounds: BlockBounds,
     with_color: bool,
     depth_ratio: f32,
+    /// The Gaussian rasteriser's 2-D filter ([`load_scene`]).
+    filter_2d: Filter2d,
 }
 
 /// What [`fuse`] made: the mesh (scene units, before the cluster filter),
@@ -437,7 +447,14 @@ fn fuse(args: &TsdfFuseArgs, s: &FuseSetup) -> anyhow::Result<Fused> {
     };
     let mut bad_depth = 0usize;
     let load = |i: usize| -> anyhow::Result<ViewMaps> {
-        let (depth, rgb, bad) = load_view(args, s.scene, &s.cams[i], &s.files[i], s.depth_ratio)?;
+        let (depth, rgb, bad) = load_view(
+            args,
+            s.scene,
+            &s.cams[i],
+            &s.files[i],
+            s.depth_ratio,
+            s.filter_2d,
+        )?;
         bad_depth += bad;
         Ok(ViewMaps { depth, rgb })
     };
@@ -633,6 +650,8 @@ fn report(
         "cameras": args.cameras.display().to_string(),
         "views": fused.views,
         "depth_ratio": s.depth_ratio,
+        "filter_2d": matches!(s.scene, Some(FusionScene::Gaussians(_)))
+            .then(|| model::filter3d::filter_2d_label(s.filter_2d)),
         "invalid_depth_pixels": fused.bad_depth,
         "raw_vertices": raw.0,
         "raw_faces": raw.1,
@@ -672,6 +691,7 @@ fn load_view(
     cam: &Camera,
     f: &ViewFiles,
     depth_ratio: f32,
+    filter_2d: Filter2d,
 ) -> anyhow::Result<LoadedView> {
     let mask = match &f.mask {
         Some(p) => {
@@ -682,7 +702,7 @@ fn load_view(
     };
     let (mut depth, rgb) = match (scene, &f.depth) {
         (Some(s), _) => {
-            let v = render_view(s, cam, depth_ratio, args.near, mask.as_deref());
+            let v = render_view(s, cam, depth_ratio, args.near, filter_2d, mask.as_deref());
             (v.depth, v.rgb)
         }
         (None, Some(p)) => {
@@ -764,8 +784,12 @@ fn check_size(path: &Path, what: &str, cam: &Camera, w: usize, h: usize) -> anyh
     Ok(())
 }
 
-/// The scene, through the common loader, ready to render for fusion.
-fn load_scene(path: &Path) -> anyhow::Result<FusionScene> {
+/// The scene, through the common loader, ready to render for fusion, and
+/// the 2-D filter for Gaussians: a `filter_3D` property (Mip-Splatting,
+/// GOF) is baked into the scales and opacities here
+/// ([`model::filter3d::baked_for_rendering`]) and picks the Mip filter
+/// under `--filter-2d auto`.
+fn load_scene(path: &Path, filter: &Filter2dArgs) -> anyhow::Result<(FusionScene, Filter2d)> {
     let accepts = [
         SceneKind::Gaussians,
         SceneKind::TriangleSoup,
@@ -775,9 +799,12 @@ fn load_scene(path: &Path) -> anyhow::Result<FusionScene> {
     // the primitives it touches from the mesh, so it is refused (unlike
     // `render`, which draws what is finite)
     let name = shown(path, false);
-    Ok(match load_kinds(path, "tsdf-fuse", &accepts)? {
+    let mut filtered = false;
+    let scene = match load_kinds(path, "tsdf-fuse", &accepts)? {
         model::Scene::Gaussians(g) => {
             crate::io::ply::gaussians::check_finite(&name, &g)?;
+            let (g, f) = model::filter3d::baked_for_rendering(g).map_err(|e| e.in_file(&name))?;
+            filtered = f;
             FusionScene::gaussians(&g.to_raster())
         }
         model::Scene::TriangleSoup(t) => {
@@ -789,5 +816,7 @@ fn load_scene(path: &Path) -> anyhow::Result<FusionScene> {
             FusionScene::Mesh(m)
         }
         model::Scene::PointCloud(_) => unreachable!("load_kinds returns an accepted kind"),
-    })
+    };
+    let f = model::filter3d::choose_filter_2d(filter.choice(), filter.kernel_size, filtered);
+    Ok((scene, f))
 }

@@ -526,6 +526,7 @@ pub fn bake_texture(
     let settings = RasterSettings {
         background: [0.0; 3],
         near: p.near,
+        ..Default::default()
     };
     let mut baker = Baker::new(atlas);
     for (i, cam) in cameras.iter().enumerate() {

@@ -36,7 +36,7 @@
 
 use rand::RngExt;
 use rayon::prelude::*;
-use splatkit_render::gaussian::{self, Gaussians3, RasterSettings, RenderOutput};
+use splatkit_render::gaussian::{self, Filter2d, Gaussians3, RasterSettings, RenderOutput};
 
 use crate::geom::sampling::knn::NnIndex;
 use crate::geom::surface_points::diamond_zbuffer::{diamond_zbuffer, frame};
@@ -107,6 +107,9 @@ pub struct LevelsetOptions {
     pub seed: u64,
     /// Near plane for the depth renders.
     pub near: f64,
+    /// The 2-D filter of the renders (3DGS's dilation by default; the Mip
+    /// filter for Mip-Splatting / GOF models).
+    pub filter_2d: Filter2d,
 }
 
 impl Default for LevelsetOptions {
@@ -121,6 +124,7 @@ impl Default for LevelsetOptions {
             depth: DepthSource::Diamonds,
             seed: 0,
             near: 0.2,
+            filter_2d: Filter2d::default(),
         }
     }
 }
@@ -257,6 +261,7 @@ fn depth_and_hits(
             let s = RasterSettings {
                 background: [0.0; 3],
                 near: opts.near,
+                filter_2d: opts.filter_2d,
             };
             // SuGaR drops depth < 0; a depth of exactly 0 would put p at the
             // camera centre (no ray direction), so it is dropped too
@@ -269,6 +274,7 @@ fn depth_and_hits(
             let s = RasterSettings {
                 background: [0.0; 3],
                 near: opts.near,
+                filter_2d: opts.filter_2d,
             };
             let img = gaussian::render(g, cam, &s);
             let w = cam.width as usize;
@@ -336,6 +342,7 @@ pub fn sample_levelset(
     let colour_settings = RasterSettings {
         background: [0.0; 3],
         near: opts.near,
+        filter_2d: opts.filter_2d,
     };
     for (ci, cam) in cams.iter().enumerate() {
         let w = cam.width as usize;

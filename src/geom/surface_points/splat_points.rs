@@ -20,7 +20,7 @@
 
 use rand::RngExt;
 use rayon::prelude::*;
-use splatkit_render::gaussian::{self, Gaussians3, RasterSettings};
+use splatkit_render::gaussian::{self, Filter2d, Gaussians3, RasterSettings};
 use splatkit_render::sh::sh_to_rgb;
 
 use crate::geom::surface_points::diamond_zbuffer::diamond_zbuffer;
@@ -39,11 +39,13 @@ pub enum PointMethod {
     Levelset(LevelsetOptions),
     /// [`centers`] of the Gaussians with opacity above `min_opacity`.
     Centers { min_opacity: f32, near: f64 },
-    /// [`depth_points`]: at most about `max_points`, chosen with `seed`.
+    /// [`depth_points`]: at most about `max_points`, chosen with `seed`,
+    /// rendered with the 2-D filter `filter_2d`.
     Depth {
         max_points: usize,
         seed: u64,
         near: f64,
+        filter_2d: Filter2d,
     },
 }
 
@@ -63,7 +65,8 @@ pub fn splat_to_points(
             max_points,
             seed,
             near,
-        } => depth_points(g, cams, *max_points, *seed, *near, progress),
+            filter_2d,
+        } => depth_points(g, cams, *max_points, *seed, *near, *filter_2d, progress),
     })
 }
 
@@ -157,12 +160,14 @@ pub fn depth_points(
     max_points: usize,
     seed: u64,
     near: f64,
+    filter_2d: Filter2d,
     mut progress: impl FnMut(usize),
 ) -> LevelPoints {
     let dc = dc_only(g);
     let s = RasterSettings {
         background: [0.0; 3],
         near,
+        filter_2d,
     };
     let per_view = max_points / cams.len().max(1) + 1;
     let mut out = LevelPoints::default();

@@ -14,7 +14,7 @@
 //! The maps are row-major, `width × height` of the camera; depth is camera z,
 //! 0 where nothing was hit.
 
-use splatkit_render::gaussian::{self, Gaussians3, RasterSettings, RenderOutput};
+use splatkit_render::gaussian::{self, Filter2d, Gaussians3, RasterSettings, RenderOutput};
 use splatkit_render::mesh as zbuffer;
 use splatkit_render::triangle::{self, Triangles3};
 
@@ -82,17 +82,21 @@ fn splat_view(out: &RenderOutput, depth_ratio: f32) -> FusionView {
 
 /// Renders `scene` from `cam`: surface depth with `depth_ratio` (splats
 /// only), colour, and `mask` (row-major values in [0, 1], the camera's size)
-/// applied to the depth. `near` is the near plane (2DGS: 0.2).
+/// applied to the depth. `near` is the near plane (2DGS: 0.2); `filter_2d`
+/// the Gaussian rasteriser's 2-D filter (3DGS's dilation, or the Mip filter
+/// for Mip-Splatting / GOF models).
 pub fn render_view(
     scene: &FusionScene,
     cam: &Camera,
     depth_ratio: f32,
     near: f64,
+    filter_2d: Filter2d,
     mask: Option<&[f32]>,
 ) -> FusionView {
     let s = RasterSettings {
         background: [0.0; 3],
         near,
+        filter_2d,
     };
     let mut v = match scene {
         FusionScene::Gaussians(g) => splat_view(&gaussian::render(g, cam, &s), depth_ratio),
