@@ -221,9 +221,9 @@ mod tests {
         );
         let b = bake_filter_3d(&g).unwrap();
         let want_s = [0.0034f64.sqrt(), 0.0041f64.sqrt(), 0.13];
-        for k in 0..3 {
-            let got = f64::from(b.log_scales[0][k]).exp();
-            assert!((got - want_s[k]).abs() < 1e-6 * want_s[k], "{got}");
+        for (ls, want) in b.log_scales[0].iter().zip(want_s) {
+            let got = f64::from(*ls).exp();
+            assert!((got - want).abs() < 1e-6 * want, "{got}");
         }
         let ratio: f64 = 0.0009 * 0.0016 * 0.0144 / (0.0034 * 0.0041 * 0.0169);
         let want_a = 0.8 * ratio.sqrt();

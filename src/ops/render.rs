@@ -181,7 +181,7 @@ fn load_scene(path: &Path, filter: &Filter2dArgs) -> anyhow::Result<(Raster, Fil
     let scene = match any::load_kinds(path, "render", &accepts)? {
         model::Scene::Gaussians(g) => {
             let (g, f) = model::filter3d::baked_for_rendering(g)
-                .map_err(|e| e.in_file(&shown(path, false)))?;
+                .map_err(|e| e.in_file(shown(path, false)))?;
             filtered = f;
             Raster::Gaussians(g.to_raster())
         }
