@@ -363,3 +363,31 @@ fn negative_filter_is_a_clear_error() {
     );
     common::fails(&out, 1, &["bad.ply", "Gaussian 17", "filter_3D"]);
 }
+
+/// Bound Gaussians carrying `filter_3D`: `bind-gaussians --rebind` would
+/// carry them on without the filter, so it refuses them with a message
+/// naming the file and the property, and writes nothing (`refine` and
+/// `train --resume` call the same check, `refuse_filter_3d`).
+#[test]
+fn binding_commands_refuse_filtered_gaussians() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = common::unit_triangle_file(dir.path());
+    let b = dir.path().join("bound.ply");
+    succeeds(&run("bind-gaussians", &[s(&m), "-o", s(&b), "-q"], None));
+    let mut g = load_gaussians(&b, "test").unwrap();
+    let n = g.len();
+    g.extras.item.push(Property {
+        name: FILTER_3D.into(),
+        data: Column::Scalar(ScalarData::F32(vec![0.01; n])),
+    });
+    let bf = dir.path().join("bound_filtered.ply");
+    save_gaussians(&bf, &g).unwrap();
+    let out = dir.path().join("out.ply");
+    let res = run(
+        "bind-gaussians",
+        &[s(&bf), "--rebind", s(&m), "-o", s(&out)],
+        None,
+    );
+    common::fails(&res, 1, &["bound_filtered.ply", FILTER_3D]);
+    assert!(!out.exists());
+}
