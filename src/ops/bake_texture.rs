@@ -156,6 +156,10 @@ fn load_inputs(
     )?;
     let gaussians = load_gaussians(&args.gaussians, "bake-texture")
         .with_context(|| format!("reading {}", shown(&args.gaussians, false)))?;
+    // its renders use 3DGS's rules only: a Mip-Splatting / GOF model would
+    // be drawn without its filters
+    crate::model::filter3d::refuse_filter_3d(&gaussians, "bake-texture")
+        .map_err(|e| e.in_file(shown(&args.gaussians, false)))?;
     // No colour to bake: the texture would be the background only.
     if gaussians.is_empty() {
         anyhow::bail!(
