@@ -335,3 +335,65 @@ fn cli_refusals_leave_no_output() {
     );
     common::fails(&o, 2, &["name it NAME.obj"]);
 }
+
+/// `info` on the textured OBJ that `bake-texture` writes: texture
+/// coordinates, the MTL file, material `material_0` with its `map_Kd` and
+/// the PNG, which exists; with the PNG removed, `info` says it is missing.
+#[test]
+fn info_lists_uvs_material_and_texture_of_the_baked_obj() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mp, gp, cp) = write_inputs(dir.path(), 8, 1);
+    let out = dir.path().join("t.obj");
+    common::succeeds(&common::run(
+        "bake-texture",
+        &[
+            &mp,
+            &gp,
+            "--cameras",
+            &cp,
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ],
+        None,
+    ));
+    let info = |json: bool| {
+        let mut args = vec![out.to_str().unwrap()];
+        if json {
+            args.push("--json");
+        }
+        let o = common::run("info", &args, None);
+        common::succeeds(&o);
+        o.stdout
+    };
+    let r: serde_json::Value = serde_json::from_slice(&info(true)).unwrap();
+    let i = &r[0];
+    let attrs: Vec<&str> = i["attributes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a.as_str().unwrap())
+        .collect();
+    assert!(attrs.contains(&"uvs"), "{attrs:?}");
+    let png = dir.path().join("t.png");
+    let mtl = dir.path().join("t.mtl");
+    assert_eq!(i["material_libraries"][0], mtl.display().to_string());
+    let m = &i["materials"][0];
+    assert_eq!(m["name"], "material_0");
+    assert_eq!(m["used_by"], i["faces"]);
+    assert_eq!(m["defined"], true);
+    assert_eq!(m["textures"][0]["slot"], "map_Kd");
+    assert_eq!(m["textures"][0]["file"], png.display().to_string());
+    assert_eq!(i["textures"][0]["file"], png.display().to_string());
+    assert_eq!(i["textures"][0]["exists"], true);
+    let text = String::from_utf8(info(false)).unwrap();
+    assert!(
+        text.contains("uvs") && text.contains("material:   material_0") && text.contains("map_Kd"),
+        "{text}"
+    );
+    std::fs::remove_file(&png).unwrap();
+    let r: serde_json::Value = serde_json::from_slice(&info(true)).unwrap();
+    assert_eq!(r[0]["textures"][0]["exists"], false);
+    let text = String::from_utf8(info(false)).unwrap();
+    assert!(text.contains("(missing)"), "{text}");
+}

@@ -174,7 +174,10 @@ proptest! {
     fn gltf_round_trip_is_exact(mesh in mesh_strategy(true)) {
         for container in [GltfContainer::Glb, GltfContainer::Gltf] {
             let mut out = Vec::new();
-            write_gltf(&mut out, &mesh, &GltfWriteOptions { container }).unwrap();
+            write_gltf(&mut out, &mesh, &GltfWriteOptions {
+                container,
+                ..Default::default()
+            }).unwrap();
             let back = parse_gltf("rt.glb", &out).unwrap();
             if mesh.vertex_colors.is_none() && mesh.face_colors.is_some() {
                 let nf = mesh.faces.len();

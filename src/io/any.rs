@@ -358,6 +358,29 @@ pub struct MeshWriteOptions {
     /// OFF layout; `None` = [`off::OffWriteOptions::for_mesh`] (COFF when
     /// the mesh has vertex colours).
     pub off: Option<off::OffWriteOptions>,
+    /// glTF/GLB: `alphaMode` BLEND for the colour material even when every
+    /// alpha is 255 (see [`gltf::GltfWriteOptions::blend`]).
+    pub gltf_blend: bool,
+    /// glTF/GLB: mark the colour material `doubleSided` (triangle soups).
+    pub double_sided: bool,
+}
+
+/// The vertex and face counts of the file [`save_mesh`] writes for `mesh`
+/// as `f`: glTF/GLB and OBJ un-share the vertices of a mesh that has face
+/// colours and no vertex colours (three per face, see
+/// [`gltf::face_colors_to_corners`]); PLY and OFF keep the mesh's counts.
+/// Reading the written file back gives these counts.
+pub fn written_counts(mesh: &Mesh, f: FileFormat) -> (usize, usize) {
+    let unshared = match f {
+        FileFormat::Glb | FileFormat::Gltf => gltf::unshares_vertices(mesh),
+        FileFormat::Obj => obj::unshares_vertices(mesh, &obj::ObjWriteOptions::default()),
+        _ => false,
+    };
+    if unshared {
+        (3 * mesh.faces.len(), mesh.faces.len())
+    } else {
+        (mesh.vertices.len(), mesh.faces.len())
+    }
 }
 
 /// Writes a mesh as PLY (binary little-endian, every attribute kept), OBJ,
@@ -397,6 +420,8 @@ pub fn save_mesh(path: &Path, mesh: &Mesh, f: FileFormat, opts: &MeshWriteOption
                 } else {
                     gltf::GltfContainer::Glb
                 },
+                blend: opts.gltf_blend,
+                double_sided: opts.double_sided,
             },
         ),
     })

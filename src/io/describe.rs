@@ -9,9 +9,11 @@ use serde::Serialize;
 use crate::io::any;
 use crate::io::cameras;
 use crate::io::detect::{FileFormat, PlyKind};
+use crate::io::materials::{MaterialInfo, TextureFile};
 use crate::io::ply::PlyReader;
 use crate::io::ply::header::PropertyKind;
 use crate::io::source::shown;
+use crate::io::{gltf, obj};
 use crate::model::mesh::bounds;
 use crate::model::{Column, Mesh, Scene, TriangleSoup};
 use crate::{Error, Result};
@@ -89,9 +91,21 @@ pub struct FileInfo {
     /// For Gaussians bound to a mesh (`bind-gaussians`): the binding.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub binding: Option<BindingInfo>,
-    /// Present attributes: `normals`, `vertex-colors`, `face-colors`, …
+    /// Present attributes: `normals`, `vertex-colors`, `face-colors`,
+    /// `uvs` (texture coordinates), a mesh's named scalars, …
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub attributes: Vec<String>,
+    /// OBJ: the `mtllib` files (resolved path, or `NAME (not found)`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub material_libraries: Vec<String>,
+    /// OBJ and glTF: the materials, with their texture maps (and glTF
+    /// `alphaMode`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<MaterialInfo>,
+    /// OBJ and glTF: the texture image files the materials name, and
+    /// whether each exists.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub textures: Vec<TextureFile>,
 }
 
 fn mesh_info(info: &mut FileInfo, m: &Mesh) {
@@ -103,6 +117,7 @@ fn mesh_info(info: &mut FileInfo, m: &Mesh) {
         (m.normals.is_some(), "normals"),
         (m.vertex_colors.is_some(), "vertex-colors"),
         (m.face_colors.is_some(), "face-colors"),
+        (m.uvs.is_some(), "uvs"),
     ] {
         if present {
             info.attributes.push(name.into());
@@ -132,6 +147,33 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
     match opened.format {
         FileFormat::Npz | FileFormat::Json => return describe_cameras(path, info),
         FileFormat::Ply => describe_ply(&opened, &mut info)?,
+        FileFormat::Obj => {
+            let (mesh, inv) = obj::parse_obj_inventory(opened.name(), &opened.input, &opened.base)?;
+            mesh_info(&mut info, &mesh);
+            info.material_libraries = inv
+                .mtllibs
+                .iter()
+                .map(|(lib, found)| match found {
+                    Some(p) => p.display().to_string(),
+                    None => format!("{lib} (not found)"),
+                })
+                .collect();
+            info.materials = inv.materials;
+            info.textures = inv.textures;
+        }
+        FileFormat::Glb | FileFormat::Gltf => {
+            let Scene::Mesh(mesh) = opened.decode()? else {
+                unreachable!("a glTF file decodes to a mesh")
+            };
+            mesh_info(&mut info, &mesh);
+            let base = (!opened.input.is_stdin()).then_some(opened.base.as_path());
+            let inv = gltf::inventory(opened.name(), &opened.input, base)?;
+            if inv.attributes.iter().any(|a| a.starts_with("TEXCOORD_")) {
+                info.attributes.push("uvs".into());
+            }
+            info.materials = inv.materials;
+            info.textures = inv.textures;
+        }
         _ => match opened.decode()? {
             Scene::Mesh(m) => mesh_info(&mut info, &m),
             Scene::TriangleSoup(s) => soup_info(&mut info, &s),
@@ -360,6 +402,47 @@ pub fn render_text(i: &FileInfo) -> String {
     }
     if !i.attributes.is_empty() {
         let _ = writeln!(s, "  attributes: {}", i.attributes.join(", "));
+    }
+    for l in &i.material_libraries {
+        let _ = writeln!(s, "  mtllib:     {l}");
+    }
+    for m in &i.materials {
+        let mode = m
+            .alpha_mode
+            .as_deref()
+            .map(|a| format!(", alphaMode {a}"))
+            .unwrap_or_default();
+        let defined = if m.defined {
+            ""
+        } else {
+            ", not defined in any MTL file"
+        };
+        let maps: Vec<String> = m
+            .textures
+            .iter()
+            .map(|t| format!("{} {}", t.slot, t.file))
+            .collect();
+        let maps = if maps.is_empty() {
+            "no texture".to_string()
+        } else {
+            maps.join(", ")
+        };
+        // glTF materials (the ones with an alphaMode) are used by primitives.
+        let unit = if m.alpha_mode.is_some() {
+            "primitive(s)"
+        } else {
+            "face(s)"
+        };
+        let _ = writeln!(
+            s,
+            "  material:   {} (used by {} {unit}{mode}{defined}): {maps}",
+            m.name,
+            thousands(m.used_by)
+        );
+    }
+    for t in &i.textures {
+        let state = if t.exists { "" } else { " (missing)" };
+        let _ = writeln!(s, "  texture:    {}{state}", t.file);
     }
     for c in &i.comments {
         let _ = writeln!(s, "  comment:    {c}");

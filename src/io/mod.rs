@@ -13,6 +13,7 @@ pub mod dtu;
 pub mod gltf;
 pub mod image;
 pub mod mat;
+pub mod materials;
 pub mod obj;
 pub mod off;
 pub mod ply;

@@ -84,11 +84,12 @@ pub fn parse_obj_in(name: &str, bytes: &[u8], base: &Path) -> Result<Mesh> {
     Ok(mesh)
 }
 
-/// One `newmtl` of an MTL file and its `map_Kd` image path (resolved
-/// against the MTL's folder).
+/// One `newmtl` of an MTL file: its `map_Kd` image path and every texture
+/// map (statement, path), paths resolved against the MTL's folder.
 struct MtlEntry {
     name: String,
     map_kd: Option<std::path::PathBuf>,
+    maps: Vec<(String, std::path::PathBuf)>,
 }
 
 /// The MTL file an `mtllib` statement names: the whole argument when such a
@@ -104,39 +105,124 @@ fn mtl_files(lib: &str, base: &Path) -> Vec<std::path::PathBuf> {
         .collect()
 }
 
-/// Parses MTL text: material names and their `map_Kd` images. Options
-/// before the file name (`-s 1 1 1`, `-clamp on`, `-bm 0.5`, …) are skipped.
+/// Whether an MTL statement names a texture map (`map_Kd`, `map_Bump`,
+/// `bump`, `disp`, `decal`, `refl`, `norm`, …).
+fn is_map_statement(kw: &str) -> bool {
+    let k = kw.to_ascii_lowercase();
+    k.starts_with("map_") || matches!(k.as_str(), "bump" | "disp" | "decal" | "refl" | "norm")
+}
+
+/// Parses MTL text: material names and their texture maps. Options before
+/// the file name (`-s 1 1 1`, `-clamp on`, `-bm 0.5`, …) are skipped.
 fn parse_mtl(text: &str, dir: &Path) -> Vec<MtlEntry> {
     let mut out: Vec<MtlEntry> = Vec::new();
     for line in text.lines() {
         let line = line.split('#').next().unwrap_or_default().trim();
         let (kw, rest) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
-        match kw {
-            "newmtl" => out.push(MtlEntry {
+        if kw == "newmtl" {
+            out.push(MtlEntry {
                 name: rest.trim().to_string(),
                 map_kd: None,
-            }),
-            "map_Kd" | "map_kd" => {
-                let words: Vec<&str> = rest.split_whitespace().collect();
-                let mut i = 0;
-                while i + 1 < words.len() && words[i].starts_with('-') {
+                maps: Vec::new(),
+            });
+        } else if is_map_statement(kw) {
+            let words: Vec<&str> = rest.split_whitespace().collect();
+            let mut i = 0;
+            while i + 1 < words.len() && words[i].starts_with('-') {
+                i += 1;
+                // an option's arguments: numbers and on/off
+                while i + 1 < words.len()
+                    && (words[i].parse::<f64>().is_ok() || matches!(words[i], "on" | "off"))
+                {
                     i += 1;
-                    // an option's arguments: numbers and on/off
-                    while i + 1 < words.len()
-                        && (words[i].parse::<f64>().is_ok() || matches!(words[i], "on" | "off"))
-                    {
-                        i += 1;
-                    }
-                }
-                let file = words[i.min(words.len())..].join(" ");
-                if let (Some(m), false) = (out.last_mut(), file.is_empty()) {
-                    m.map_kd = Some(dir.join(file.replace('\\', "/")));
                 }
             }
-            _ => {}
+            let file = words[i.min(words.len())..].join(" ");
+            if let (Some(m), false) = (out.last_mut(), file.is_empty()) {
+                let path = dir.join(file.replace('\\', "/"));
+                if kw == "map_Kd" || kw == "map_kd" {
+                    m.map_kd = Some(path.clone());
+                }
+                m.maps.push((kw.to_string(), path));
+            }
         }
     }
     out
+}
+
+/// The materials and texture files of an OBJ, for `info`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ObjInventory {
+    /// Each `mtllib` argument with the MTL file it resolved to (`None`:
+    /// not found).
+    pub mtllibs: Vec<(String, Option<std::path::PathBuf>)>,
+    /// Materials used by faces (in order of first `usemtl`), then those the
+    /// MTL files define and no face uses.
+    pub materials: Vec<crate::io::materials::MaterialInfo>,
+    /// Every texture file the MTL files name, and whether it exists.
+    pub textures: Vec<crate::io::materials::TextureFile>,
+}
+
+/// Parses an OBJ as [`parse_obj_in`] does and lists its materials: the
+/// `mtllib` files looked up in `base`, each material with the faces that
+/// use it and its texture maps, and each texture file with whether it
+/// exists. A missing MTL or image is reported, not an error.
+pub fn parse_obj_inventory(name: &str, bytes: &[u8], base: &Path) -> Result<(Mesh, ObjInventory)> {
+    use crate::io::materials::{MaterialInfo, MaterialTexture, note_file};
+    let (mut mesh, mats) = parse_obj_materials(name, bytes)?;
+    if mesh.uvs.is_some() {
+        attach_texture(&mut mesh, &mats, base);
+    }
+    let mut inv = ObjInventory::default();
+    let mut entries: Vec<MtlEntry> = Vec::new();
+    for lib in &mats.libs {
+        let files = mtl_files(lib, base);
+        if files.is_empty() {
+            inv.mtllibs.push((lib.clone(), None));
+        }
+        for f in files {
+            if let Ok(text) = crate::io::source::read_file(&f) {
+                let dir = f.parent().unwrap_or(Path::new("."));
+                entries.extend(parse_mtl(&String::from_utf8_lossy(&text), dir));
+            }
+            inv.mtllibs.push((lib.clone(), Some(f)));
+        }
+    }
+    let mut used = vec![0usize; mats.names.len()];
+    for &m in &mats.face_material {
+        if let Some(u) = used.get_mut(m as usize) {
+            *u += 1;
+        }
+    }
+    let mut describe = |name: &str, used_by: usize, entry: Option<&MtlEntry>| MaterialInfo {
+        name: name.to_string(),
+        alpha_mode: None,
+        used_by,
+        defined: entry.is_some(),
+        textures: entry
+            .map(|e| {
+                e.maps
+                    .iter()
+                    .map(|(slot, p)| MaterialTexture {
+                        slot: slot.clone(),
+                        file: note_file(&mut inv.textures, p.display().to_string(), p.is_file()),
+                    })
+                    .collect()
+            })
+            .unwrap_or_default(),
+    };
+    let mut materials = Vec::new();
+    for (i, n) in mats.names.iter().enumerate() {
+        let entry = entries.iter().find(|e| e.name == *n);
+        materials.push(describe(n, used[i], entry));
+    }
+    for e in &entries {
+        if !mats.names.contains(&e.name) && !materials.iter().any(|m| m.name == e.name) {
+            materials.push(describe(&e.name, 0, Some(e)));
+        }
+    }
+    inv.materials = materials;
+    Ok((mesh, inv))
 }
 
 /// Reads a texture image: an 8- or 16-bit PNG (grey, grey+alpha, RGB or
@@ -606,6 +692,13 @@ impl Default for ObjWriteOptions {
     }
 }
 
+/// Whether [`write_obj`] un-shares the vertices of `mesh` (three per face,
+/// [`crate::io::gltf::face_colors_to_corners`]): colours are written and the
+/// mesh has face colours but no vertex colours.
+pub fn unshares_vertices(mesh: &Mesh, opts: &ObjWriteOptions) -> bool {
+    opts.colors && mesh.vertex_colors.is_none() && mesh.face_colors.is_some()
+}
+
 /// Writes `mesh` as OBJ (see the module documentation and
 /// [`ObjWriteOptions`]). Scalars and extras are not written. Non-finite
 /// coordinates are written as they are (`inf`, `-inf`, `NaN`); this reader
@@ -615,7 +708,7 @@ impl Default for ObjWriteOptions {
 pub fn write_obj(w: &mut dyn Write, mesh: &Mesh, opts: &ObjWriteOptions) -> Result<()> {
     mesh.validate()
         .map_err(|e| Error::invalid(format!("cannot write OBJ: {e}")))?;
-    if opts.colors && mesh.vertex_colors.is_none() && mesh.face_colors.is_some() {
+    if unshares_vertices(mesh, opts) {
         let soup = crate::io::gltf::face_colors_to_corners(mesh);
         return write_obj_validated(w, &soup, opts);
     }
@@ -636,7 +729,7 @@ pub fn write_obj_with_material(
     mesh.validate()
         .map_err(|e| Error::invalid(format!("cannot write OBJ: {e}")))?;
     let unshared;
-    let mesh = if opts.colors && mesh.vertex_colors.is_none() && mesh.face_colors.is_some() {
+    let mesh = if unshares_vertices(mesh, opts) {
         unshared = crate::io::gltf::face_colors_to_corners(mesh);
         &unshared
     } else {
@@ -967,6 +1060,67 @@ mod tests {
         assert!(m.texture.is_none() && m.uvs.is_some());
         assert_err("vt\n", &["line 1", "no numbers"]);
         assert_err("vt 0 0 0 0\n", &["line 1", "more than 3"]);
+    }
+
+    /// The inventory: `mtllib` resolved or not found, materials in order of
+    /// use with their face counts and maps (options skipped), a material
+    /// used but defined nowhere, one defined but unused, and texture files
+    /// with whether they exist.
+    #[test]
+    fn inventory_lists_libraries_materials_and_texture_files() {
+        let dir = tempfile::tempdir().unwrap();
+        write_test_png(&dir.path().join("my tex.png"));
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl plain\nKd 1 0 0\nnewmtl skin\nmap_Kd -s 1 1 1 -clamp on my tex.png\n\
+             bump -bm 0.5 bumps.png\nnewmtl spare\nmap_Ks my tex.png\n",
+        )
+        .unwrap();
+        let obj = "mtllib m.mtl\nmtllib lost.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                   vt 0 0\nvt 1 0\nvt 1 1\nusemtl skin\nf 1/1 2/2 3/3 4/3\n\
+                   usemtl plain\nf 1 2 3\nusemtl ghost\nf 1 3 4\n";
+        let (m, inv) = parse_obj_inventory("t.obj", obj.as_bytes(), dir.path()).unwrap();
+        assert_eq!(m.faces.len(), 4);
+        assert!(m.texture.is_some());
+        assert_eq!(
+            inv.mtllibs,
+            [
+                ("m.mtl".to_string(), Some(dir.path().join("m.mtl"))),
+                ("lost.mtl".to_string(), None)
+            ]
+        );
+        let names: Vec<(&str, usize, bool)> = inv
+            .materials
+            .iter()
+            .map(|m| (m.name.as_str(), m.used_by, m.defined))
+            .collect();
+        assert_eq!(
+            names,
+            [
+                ("skin", 2, true),
+                ("plain", 1, true),
+                ("ghost", 1, false),
+                ("spare", 0, true)
+            ]
+        );
+        let tex = dir.path().join("my tex.png").display().to_string();
+        let bumps = dir.path().join("bumps.png").display().to_string();
+        let skin = &inv.materials[0].textures;
+        assert_eq!(
+            (skin[0].slot.as_str(), skin[0].file.as_str()),
+            ("map_Kd", tex.as_str())
+        );
+        assert_eq!(
+            (skin[1].slot.as_str(), skin[1].file.as_str()),
+            ("bump", bumps.as_str())
+        );
+        assert_eq!(inv.materials[3].textures[0].slot, "map_Ks");
+        let files: Vec<(&str, bool)> = inv
+            .textures
+            .iter()
+            .map(|t| (t.file.as_str(), t.exists))
+            .collect();
+        assert_eq!(files, [(tex.as_str(), true), (bumps.as_str(), false)]);
     }
 
     #[test]

@@ -12,8 +12,9 @@ use serde_json::json;
 
 use crate::cli::{Common, shown};
 use crate::geom::meshing::soup_mesh::{ExportParams, soup_to_mesh};
-use crate::io::any::{MeshWriteOptions, open, output_format, save_mesh};
+use crate::io::any::{MeshWriteOptions, open, output_format, save_mesh, written_counts};
 use crate::io::detect::FileFormat;
+use crate::io::gltf::face_colors_to_corners;
 use crate::io::off::OffWriteOptions;
 use crate::model::{Scene, SceneKind};
 
@@ -22,6 +23,7 @@ use crate::model::{Scene, SceneKind};
 #[command(after_help = "Examples:
   export-off point_cloud_state_dict.pt -o scene.off          # byte-compatible with create_off.py
   export-off scene.pt --format glb -o scene.glb --alpha
+  export-off scene.pt --off-layout compatible -o scene.off   # Open3D reads the colours
   prune-triangles scene.pt --game-engine -o - | export-off - -o solid.off")]
 pub struct ExportOffArgs {
     /// Input: Triangle Splatting checkpoint (.pt), soup PLY, or a mesh (PLY/OBJ/OFF/GLB); `-` = stdin.
@@ -38,6 +40,13 @@ pub struct ExportOffArgs {
     /// Put colours on vertices (corners of each face get its colour) instead of faces.
     #[arg(long)]
     pub per_vertex_colors: bool,
+    /// OFF layout: `triangle-splatting` (default; create_off.py's bytes: COFF
+    /// header, colours on the faces; Triangle Splatting's tools, MeshLab and
+    /// splatkit read its colours, Open3D 0.19 refuses it, trimesh reads the
+    /// geometry only) or `compatible` (COFF with `r g b a` on every vertex,
+    /// corners un-shared; Open3D reads its colours, trimesh and MeshLab too).
+    #[arg(long, value_enum, value_name = "LAYOUT")]
+    pub off_layout: Option<OffLayout>,
     /// Write alpha = trunc(opacity·255) instead of 255.
     #[arg(long)]
     pub alpha: bool,
@@ -54,6 +63,15 @@ pub struct ExportOffArgs {
     pub allow_empty: bool,
     #[command(flatten)]
     pub common: Common,
+}
+
+/// The OFF layouts `export-off` writes.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OffLayout {
+    /// Triangle Splatting's `create_off.py`: `COFF`, per-face colours.
+    TriangleSplatting,
+    /// `COFF` with per-vertex `r g b a`, which Open3D requires of `COFF`.
+    Compatible,
 }
 
 fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
@@ -92,16 +110,23 @@ pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
     if matches!(format, FileFormat::Glb | FileFormat::Ply) {
         crate::cli::check_binary_stdout(&args.output)?;
     }
+    if args.off_layout.is_some() && format != FileFormat::Off {
+        return Err(crate::cli::usage(format!(
+            "--off-layout applies to OFF output, not {}",
+            format.name()
+        )));
+    }
+    let compatible = args.off_layout == Some(OffLayout::Compatible);
     let params = ExportParams {
         dedup: !args.no_dedup,
-        per_vertex_colors: args.per_vertex_colors,
+        per_vertex_colors: args.per_vertex_colors || compatible,
         alpha: args.alpha,
         dc_only: args.dc_only,
         view_from: args.view_from.unwrap_or([0.0; 3]),
     };
     let scene = open(&args.input)?
         .decode_kinds("export-off", &[SceneKind::TriangleSoup, SceneKind::Mesh])?;
-    let (mesh, from_soup) = match scene {
+    let (mut mesh, from_soup) = match scene {
         Scene::TriangleSoup(s) => (soup_to_mesh(&s, &params), true),
         Scene::Mesh(m) => (m, false),
         _ => unreachable!("decode_kinds returns an accepted kind"),
@@ -113,6 +138,14 @@ pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
             shown(&args.input, false),
             format.name().to_uppercase()
         );
+    }
+    // The compatible layout wants colours on the vertices: a mesh with face
+    // colours only gets three vertices per face, each with its face's colour.
+    if compatible && !from_soup {
+        if mesh.vertex_colors.is_none() && mesh.face_colors.is_some() {
+            mesh = face_colors_to_corners(&mesh);
+        }
+        mesh.face_colors = None;
     }
     // OFF from a soup: create_off.py's layout (face colours, or vertex
     // colours in Python repr floats); from a mesh: COFF when it has colours.
@@ -129,12 +162,19 @@ pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    save_mesh(&args.output, &mesh, format, &MeshWriteOptions { off })
+    let opts = MeshWriteOptions {
+        off,
+        gltf_blend: args.alpha,
+        double_sided: from_soup,
+    };
+    save_mesh(&args.output, &mesh, format, &opts)
         .with_context(|| format!("writing {}", shown(&args.output, true)))?;
+    // What the file holds (glTF and OBJ un-share vertices for face colours).
+    let (vertices, faces) = written_counts(&mesh, format);
     args.common.say(format!(
         "export-off: wrote {} vertices, {} faces as {} to {}",
-        mesh.vertices.len(),
-        mesh.faces.len(),
+        vertices,
+        faces,
         format.name(),
         shown(&args.output, true)
     ));
@@ -142,8 +182,8 @@ pub fn run(args: ExportOffArgs) -> anyhow::Result<()> {
         "input": shown(&args.input, false),
         "output": shown(&args.output, true),
         "format": format.name(),
-        "vertices": mesh.vertices.len(),
-        "faces": mesh.faces.len(),
+        "vertices": vertices,
+        "faces": faces,
         "from_soup": from_soup,
     }))
 }

@@ -6,8 +6,21 @@
 //! One scene, one node without transform, one mesh with one primitive:
 //! `POSITION` (f32 VEC3, with the `min`/`max` the specification requires,
 //! computed over finite coordinates), `NORMAL` (f32 VEC3) when the mesh has
-//! normals, `COLOR_0` (normalised u8 VEC4, RGBA) when it has colours, and u32
-//! indices in mode TRIANGLES. Every section of the binary buffer is 4-byte
+//! normals, `COLOR_0` (f32 VEC4, RGBA) when it has colours, and u32
+//! indices in mode TRIANGLES.
+//!
+//! Colours: glTF defines `COLOR_0` as linear, our meshes hold 8-bit sRGB.
+//! RGB is decoded with the exact sRGB EOTF (piecewise, not a 2.2 power; see
+//! `color.rs`) and stored as f32, which every glTF reader must accept and
+//! which keeps each of the 256 codes exactly (normalised u8 would merge the
+//! 13 darkest codes, whose linear values lie under 1/255); alpha is linear
+//! already and is stored as `a / 255`. A coloured mesh gets one material:
+//! `baseColorFactor` (1, 1, 1, 1) and no texture, so the colour is
+//! `COLOR_0` alone (Blender's importer then wires the colour attribute into
+//! the Principled BSDF's base colour and alpha), `metallicFactor` 0,
+//! `roughnessFactor` 1, `alphaMode` BLEND when some alpha is below 255 or
+//! [`GltfWriteOptions::blend`] asks for it (OPAQUE otherwise), and
+//! `doubleSided` as [`GltfWriteOptions::double_sided`] says. Every section of the binary buffer is 4-byte
 //! aligned. `.glb` puts the buffer in the BIN chunk; `.gltf` embeds it as a
 //! base64 `data:application/octet-stream;base64,…` URI.
 //!
@@ -34,7 +47,13 @@
 //! All primitives are merged into one mesh. Modes TRIANGLES, TRIANGLE_STRIP
 //! and TRIANGLE_FAN give triangles; POINTS gives vertices only; line modes are
 //! skipped. `POSITION` and `NORMAL` must be f32; `COLOR_0` may be f32, or
-//! normalised u8/u16, VEC3 (alpha 255) or VEC4; indices u8, u16 or u32. A
+//! normalised u8/u16, VEC3 (alpha 255) or VEC4; indices u8, u16 or u32.
+//! `COLOR_0` is read as linear, as the specification defines it, whoever
+//! wrote the file: RGB is clamped to [0, 1] and encoded with the sRGB OETF
+//! to 8 bits (`round(255 · OETF(v))`), alpha is `round(255 · a)`. So a file
+//! that stored 8-bit sRGB values unconverted (trimesh 5.2 does) reads
+//! brighter, as it shows in Blender and other viewers that follow the
+//! specification. A
 //! primitive lacking normals or colours that others have gets (0, 0, 0) /
 //! opaque white. Sparse accessors are refused. Errors name the file and the
 //! byte offset (container) or the mesh / primitive / accessor (content).
@@ -60,6 +79,8 @@
 //!   the object", "failed to fill whole buffer"), which the `malformed_glb`
 //!   test requires.
 
+mod color;
+mod inventory;
 mod read;
 #[cfg(test)]
 mod tests;
@@ -67,8 +88,11 @@ mod write;
 
 use std::borrow::Cow;
 
+pub use inventory::{GltfInventory, inventory};
 pub use read::{parse_gltf, parse_gltf_in, read_gltf};
-pub use write::{GltfContainer, GltfWriteOptions, face_colors_to_corners, write_gltf};
+pub use write::{
+    GltfContainer, GltfWriteOptions, face_colors_to_corners, unshares_vertices, write_gltf,
+};
 
 fn pad4(n: usize) -> usize {
     n.div_ceil(4) * 4

@@ -8,6 +8,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use gltf_json as json;
 
+use super::color::{linear_to_srgb8, linear8_to_srgb8_table};
 use super::{base64_decode, pad4};
 use crate::model::Mesh;
 use crate::{Error, Result};
@@ -45,7 +46,7 @@ const GLB_BIN: u32 = 0x004E_4942;
 
 /// Splits a GLB container into its JSON and (optional) BIN chunks, checking
 /// every length against the bytes present.
-fn split_glb<'a>(name: &str, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>)> {
+pub(super) fn split_glb<'a>(name: &str, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>)> {
     let err = |off: usize, msg: String| Error::format(name, format!("byte offset {off}: {msg}"));
     let u32_at = |off: usize| -> Result<u32> {
         bytes
@@ -467,7 +468,8 @@ impl Ctx<'_, '_> {
             .collect())
     }
 
-    /// Reads `COLOR_0` as RGBA u8.
+    /// Reads `COLOR_0` (linear) as 8-bit sRGB RGBA (see the module
+    /// documentation).
     fn colors(&self, acc: &gltf::Accessor) -> Result<Vec<[u8; 4]>> {
         let what = "COLOR_0";
         let n = match acc.dimensions() {
@@ -488,21 +490,33 @@ impl Ctx<'_, '_> {
             let a = if n == 3 { 255 } else { 0 };
             return Ok(vec![[0, 0, 0, a]; acc.count()]);
         };
+        let lut8 = linear8_to_srgb8_table();
         Ok((0..acc.count())
             .map(|i| {
                 let e = &data[i * stride..];
                 let mut c = [255u8; 4];
                 for (k, ck) in c.iter_mut().enumerate().take(n) {
+                    let alpha = k == 3;
                     *ck = match t {
-                        DataType::U8 => e[k],
+                        DataType::U8 if alpha => e[k],
+                        DataType::U8 => lut8[e[k] as usize],
                         DataType::U16 => {
                             let v = u32::from(u16::from_le_bytes([e[2 * k], e[2 * k + 1]]));
-                            ((v * 255 + 32767) / 65535) as u8
+                            if alpha {
+                                ((v * 255 + 32767) / 65535) as u8
+                            } else {
+                                linear_to_srgb8(f64::from(v) / 65535.0)
+                            }
                         }
                         _ => {
                             let o = 4 * k;
                             let v = f32::from_le_bytes([e[o], e[o + 1], e[o + 2], e[o + 3]]);
-                            (v.clamp(0.0, 1.0) * 255.0).round() as u8
+                            if alpha {
+                                (if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) } * 255.0).round()
+                                    as u8
+                            } else {
+                                linear_to_srgb8(f64::from(v))
+                            }
                         }
                     };
                 }
@@ -685,7 +699,7 @@ impl Merge {
 }
 
 /// Decodes `%XX` escapes in a relative URI (invalid escapes are kept).
-fn percent_decode(uri: &str) -> String {
+pub(super) fn percent_decode(uri: &str) -> String {
     let b = uri.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;

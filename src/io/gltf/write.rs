@@ -8,6 +8,7 @@ use std::path::Path;
 use gltf_json as json;
 use json::validation::{Checked, USize64};
 
+use super::color::srgb8_to_linear;
 use super::{base64_encode, pad4};
 use crate::io::source::werr;
 use crate::model::Mesh;
@@ -28,6 +29,12 @@ pub enum GltfContainer {
 pub struct GltfWriteOptions {
     /// Output container.
     pub container: GltfContainer,
+    /// Give the colour material `alphaMode: "BLEND"` even when every alpha
+    /// is 255 (it is BLEND anyway when some alpha is below 255).
+    pub blend: bool,
+    /// Mark the colour material `doubleSided` (for triangle soups, whose
+    /// winding is arbitrary).
+    pub double_sided: bool,
 }
 
 impl GltfWriteOptions {
@@ -43,6 +50,7 @@ impl GltfWriteOptions {
             } else {
                 GltfContainer::Glb
             },
+            ..Default::default()
         }
     }
 }
@@ -83,6 +91,13 @@ pub fn face_colors_to_corners(mesh: &Mesh) -> Mesh {
     }
 }
 
+/// Whether [`write_gltf`] un-shares the vertices of `mesh` (three per
+/// face, [`face_colors_to_corners`]): it has face colours and no vertex
+/// colours.
+pub fn unshares_vertices(mesh: &Mesh) -> bool {
+    mesh.vertex_colors.is_none() && mesh.face_colors.is_some()
+}
+
 /// Writes `mesh` as glTF 2.0 (see the module documentation).
 ///
 /// Errors: the mesh fails [`Mesh::validate`], un-sharing would need more than
@@ -92,7 +107,7 @@ pub fn write_gltf(w: &mut dyn Write, mesh: &Mesh, opts: &GltfWriteOptions) -> Re
     mesh.validate()
         .map_err(|e| Error::invalid(format!("cannot write glTF: {e}")))?;
     let unshared;
-    let mesh = if mesh.vertex_colors.is_none() && mesh.face_colors.is_some() {
+    let mesh = if unshares_vertices(mesh) {
         if mesh.faces.len() as u64 * 3 > u64::from(u32::MAX) {
             return Err(Error::invalid(
                 "cannot write glTF: un-sharing vertices for face colours needs more than 2^32 vertices",
@@ -103,7 +118,7 @@ pub fn write_gltf(w: &mut dyn Write, mesh: &Mesh, opts: &GltfWriteOptions) -> Re
     } else {
         mesh
     };
-    let (root, bin) = build_document(mesh)?;
+    let (root, bin) = build_document(mesh, opts)?;
     match opts.container {
         GltfContainer::Glb => {
             let json = root
@@ -149,7 +164,7 @@ pub fn write_gltf(w: &mut dyn Write, mesh: &Mesh, opts: &GltfWriteOptions) -> Re
 const DATA_URI_PREFIX: &str = "data:application/octet-stream;base64,";
 
 /// Builds the JSON document and the binary buffer for `mesh`.
-fn build_document(mesh: &Mesh) -> Result<(json::Root, Vec<u8>)> {
+fn build_document(mesh: &Mesh, opts: &GltfWriteOptions) -> Result<(json::Root, Vec<u8>)> {
     let mut root = json::Root {
         asset: json::Asset {
             generator: Some(format!("splatkit {}", env!("CARGO_PKG_VERSION"))),
@@ -227,15 +242,31 @@ fn build_document(mesh: &Mesh) -> Result<(json::Root, Vec<u8>)> {
         let a = root.push(accessor(view, nv, Ct::F32, Ty::Vec3, false, None, None));
         attributes.insert(Checked::Valid(json::mesh::Semantic::Normals), a);
     }
+    let mut material = None;
     if let Some(c) = &mesh.vertex_colors {
+        // Linear float RGBA (see the module documentation).
+        let lut: [f32; 256] = std::array::from_fn(|k| srgb8_to_linear(k as u8));
+        let linear: Vec<[f32; 4]> = c
+            .iter()
+            .map(|c| {
+                [
+                    lut[c[0] as usize],
+                    lut[c[1] as usize],
+                    lut[c[2] as usize],
+                    f32::from(c[3]) / 255.0,
+                ]
+            })
+            .collect();
         let view = add_view(
             &mut root,
             &mut bin,
-            bytemuck::cast_slice(c),
+            bytemuck::cast_slice(&linear),
             Target::ArrayBuffer,
         );
-        let a = root.push(accessor(view, nv, Ct::U8, Ty::Vec4, true, None, None));
+        let a = root.push(accessor(view, nv, Ct::F32, Ty::Vec4, false, None, None));
         attributes.insert(Checked::Valid(json::mesh::Semantic::Colors(0)), a);
+        let blend = opts.blend || c.iter().any(|c| c[3] < 255);
+        material = Some(root.push(color_material(blend, opts.double_sided)));
     }
     let (indices, mode) = if mesh.faces.is_empty() {
         (None, json::mesh::Mode::Points)
@@ -271,7 +302,7 @@ fn build_document(mesh: &Mesh) -> Result<(json::Root, Vec<u8>)> {
             extensions: None,
             extras: Default::default(),
             indices,
-            material: None,
+            material,
             mode: Checked::Valid(mode),
             targets: None,
         }],
@@ -288,4 +319,28 @@ fn build_document(mesh: &Mesh) -> Result<(json::Root, Vec<u8>)> {
     });
     root.scene = Some(scene);
     Ok((root, bin))
+}
+
+/// The material of a coloured mesh: the colour is `COLOR_0` alone
+/// (`baseColorFactor` 1, no texture), dielectric and fully rough
+/// (`metallicFactor` 0, `roughnessFactor` 1, so PBR viewers show the
+/// colour rather than a dark metal), `alphaMode` BLEND when `blend` (the
+/// alpha of `COLOR_0` then sets the coverage) and OPAQUE otherwise.
+fn color_material(blend: bool, double_sided: bool) -> json::Material {
+    use json::material::{AlphaMode, PbrBaseColorFactor, PbrMetallicRoughness, StrengthFactor};
+    json::Material {
+        alpha_mode: Checked::Valid(if blend {
+            AlphaMode::Blend
+        } else {
+            AlphaMode::Opaque
+        }),
+        double_sided,
+        pbr_metallic_roughness: PbrMetallicRoughness {
+            base_color_factor: PbrBaseColorFactor([1.0; 4]),
+            metallic_factor: StrengthFactor(0.0),
+            roughness_factor: StrengthFactor(1.0),
+            ..Default::default()
+        },
+        ..Default::default()
+    }
 }
