@@ -83,7 +83,8 @@ def corner_colours(ob):
             c = col[li] if attr.domain == "CORNER" else col[vi]
             corners.append((tuple(round(x, 5) for x in me.vertices[vi].co), c))
         faces.append(corners)
-    return attr, faces
+    # plain values only: the next import frees Blender's data
+    return f"{attr.data_type}/{attr.domain}", faces
 
 
 ok = True
@@ -91,19 +92,17 @@ glb, obj = export("run.glb"), export("run.obj")
 a_glb, f_glb = corner_colours(import_file(glb))
 a_obj, f_obj = corner_colours(import_file(obj))
 print(f"blender {bpy.app.version_string}; input {inp}")
-print(f"glTF import: {len(f_glb)} faces, attribute {a_glb.data_type}/{a_glb.domain}")
-print(f"OBJ import:  {len(f_obj)} faces, attribute {a_obj.data_type}/{a_obj.domain}")
+print(f"glTF import: {len(f_glb)} faces, colour attribute {a_glb}")
+print(f"OBJ import:  {len(f_obj)} faces, colour attribute {a_obj}")
 if len(f_glb) != len(f_obj):
     print("FAIL: face counts differ")
     sys.exit(1)
 worst = 0.0
+# Faces and their corners come in file order from both importers (each applies its own axis
+# conversion, so positions are not compared).
 for fg, fo in zip(f_glb, f_obj):
-    by_pos = {p: c for p, c in fo}
-    for p, c in fg:
-        if p not in by_pos:
-            print(f"FAIL: corner {p} of a glTF face is not in the OBJ face")
-            sys.exit(1)
-        worst = max(worst, float(np.abs(c[:3] - by_pos[p][:3]).max()))
+    for (_, c), (_, d) in zip(fg, fo):
+        worst = max(worst, float(np.abs(c[:3] - d[:3]).max()))
 print(f"max |glTF - OBJ| over every corner and RGB channel, sRGB as Blender shows: "
       f"{worst:.6f} = {worst * 255:.3f}/255")
 ok &= worst <= 1.0 / 255 + 1e-6
