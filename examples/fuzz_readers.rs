@@ -1,5 +1,5 @@
 //! A seeded mutation fuzzer over every file reader (issue 11): PLY (generic,
-//! Gaussians, mesh, points, soup), OBJ, OFF, glTF/GLB, Triangle Splatting
+//! Gaussians, 2DGS surfels, mesh, points, soup), OBJ, OFF, glTF/GLB, Triangle Splatting
 //! `.pt`, MATLAB `.mat`, NumPy `.npy` / NeuS `.npz`, COLMAP binary and text,
 //! 3DGS `cameras.json`, `transforms.json`, the Tanks-and-Temples `.log`,
 //! `_trans.txt` and crop JSON.
@@ -50,6 +50,7 @@ fn readers() -> Vec<(&'static str, Reader, &'static [&'static str])> {
             |b| {
                 ply::parse_ply("f", b).is_ok()
                     | ply::gaussians::parse_gaussians("f", b).is_ok()
+                    | ply::surfels::parse_surfels("f", b).is_ok()
                     | ply::mesh::parse_mesh("f", b).is_ok()
                     | ply::points::parse_points("f", b).is_ok()
                     | ply::soup::parse_soup("f", b).is_ok()

@@ -266,3 +266,34 @@ pub fn sphere_mesh_distance(m: &Mesh) -> crate::Result<(f64, f64)> {
     let comp = NnIndex::new(&pts)?.nearest_distances(&sphere);
     Ok((accuracy, comp.iter().sum::<f64>() / n as f64))
 }
+
+/// `n` 2DGS surfels tangent to the sphere of radius `r` about the origin:
+/// centres on a Fibonacci sphere, each disc's normal (its rotation's third
+/// column) the radial direction, a seeded random twist about it, the
+/// quaternion scaled by a random factor in [0.5, 2] (stored values need not
+/// be unit); standard deviations `sigma` and 0.8·`sigma` along the two
+/// tangent axes, opacity 0.9, SH degree 0 with the DC colour of
+/// [`sphere_texture`].
+pub fn surfel_sphere(n: usize, r: f64, sigma: f64, seed: u64) -> crate::model::Surfels {
+    use rand::RngExt;
+    let mut rng = crate::model::rng::seeded(seed);
+    let mut s = crate::model::Surfels::default();
+    for k in 0..n {
+        let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+        let a = k as f64 * 2.399_963_229_728_653;
+        let h = (1.0 - y * y).sqrt();
+        let dir = DVec3::new(h * a.cos(), y, h * a.sin());
+        let twist = glam::DQuat::from_rotation_z(rng.random_range(0.0..std::f64::consts::TAU));
+        let q = glam::DQuat::from_rotation_arc(DVec3::Z, dir) * twist;
+        let m = rng.random_range(0.5..2.0);
+        s.means.push((dir * r).as_vec3().to_array());
+        s.rotations
+            .push([q.w * m, q.x * m, q.y * m, q.z * m].map(|v| v as f32));
+        s.log_scales
+            .push([sigma.ln() as f32, (0.8 * sigma).ln() as f32]);
+        s.opacity_logits.push(crate::model::gaussians::logit(0.9));
+        s.sh_dc
+            .push(sphere_texture(dir).map(splatkit_render::sh::rgb_to_sh));
+    }
+    s
+}

@@ -510,6 +510,72 @@ fn colmap_text_model_written_by_pycolmap() {
     }
 }
 
+/// testdata/surfels/expected.json (the 2DGS fixture keeps its own values).
+fn surfels_expected() -> Value {
+    serde_json::from_slice(&read("surfels/expected.json")).expect("surfels/expected.json parses")
+}
+
+/// A 2DGS PLY written as hbb1/2d-gaussian-splatting's `save_ply` does (x y z
+/// nx ny nz f_dc_0..2 f_rest_0..44 opacity scale_0 scale_1 rot_0..3, f32,
+/// binary little-endian): detected as surfels, every value bit-exact,
+/// `f_rest` transposed to coefficient-major, each disc normal (R[:, 2] of
+/// 2DGS's `build_rotation`, computed by NumPy in f64) within 1e-6, and
+/// re-writing reproduces plyfile's bytes.
+#[test]
+fn surfels_written_like_2dgs_save_ply() {
+    use splatkit::io::any;
+    use splatkit::model::{Scene, SceneKind};
+    let file = "surfels/point_cloud.ply";
+    let e = surfels_expected();
+    let bytes = read(file);
+    let opened = any::open(&path(file)).unwrap();
+    assert_eq!(opened.kind().unwrap(), SceneKind::Surfels);
+    let Scene::Surfels(s) = opened.decode().unwrap() else {
+        panic!("not surfels")
+    };
+    let t = tol(&e);
+    assert!(t.exact);
+    assert_eq!(s.len() as u64, e["n"].as_u64().unwrap());
+    assert_eq!(s.sh_degree as u64, e["sh_degree"].as_u64().unwrap());
+    check_f32(file, "means", &flat3(&s.means), &f64s(&e["means"]), &t);
+    let normals = s.normals.as_ref().expect("save_ply writes nx ny nz");
+    assert!(flat3(normals).iter().all(|&x| x.to_bits() == 0));
+    check_f32(file, "f_dc", &flat3(&s.sh_dc), &f64s(&e["sh_dc"]), &t);
+    check_f32(
+        file,
+        "sh_rest",
+        &s.sh_rest,
+        &f64s(&e["sh_rest_coefficient_major"]),
+        &t,
+    );
+    check_f32(
+        file,
+        "opacity",
+        &s.opacity_logits,
+        &f64s(&e["opacity_logits"]),
+        &t,
+    );
+    let scales: Vec<f32> = s.log_scales.iter().flatten().copied().collect();
+    check_f32(file, "scales", &scales, &f64s(&e["log_scales"]), &t);
+    let rot: Vec<f32> = s.rotations.iter().flatten().copied().collect();
+    check_f32(file, "rot (w x y z)", &rot, &f64s(&e["rotations_wxyz"]), &t);
+    let want_n = f64s(&e["disc_normals"]);
+    let abs = e["normal_tol"]["abs"].as_f64().unwrap();
+    for i in 0..s.len() {
+        let n = s.disc_normal(i);
+        for c in 0..3 {
+            let err = (f64::from(n[c]) - want_n[3 * i + c]).abs();
+            assert!(err <= abs, "{file}: disc normal {i}[{c}] off by {err:e}");
+        }
+    }
+    let mut again = Vec::new();
+    ply::surfels::write_surfels(&mut again, &s, ply::Format::BinaryLittleEndian).unwrap();
+    assert!(
+        again == bytes,
+        "re-writing does not reproduce plyfile's file"
+    );
+}
+
 /// A 3DGS PLY written with plyfile exactly as graphdeco's `save_ply`
 /// (x y z nx ny nz f_dc_0..2 f_rest_0..44 opacity scale_0..2 rot_0..3, f32,
 /// binary little-endian): every value bit-exact, `f_rest` transposed from
@@ -689,7 +755,8 @@ fn every_fixture_is_listed_and_checked() {
                 || rel == "pt/expected.json"
                 || files.contains_key(&rel)
                 || rel.strip_prefix("pt/").is_some_and(|f| pt.get(f).is_some())
-                || rel.starts_with("colmap/");
+                || rel.starts_with("colmap/")
+                || rel.starts_with("surfels/");
             assert!(checked, "{rel} has no expected values");
             seen += 1;
         }

@@ -6,7 +6,8 @@
 //! of parser happen here and nowhere else.
 //!
 //! Kinds by format:
-//! - PLY: by its header: 3DGS properties → Gaussians, faces carrying
+//! - PLY: by its header: 3DGS properties → Gaussians, the same with two
+//!   scales (`scale_0`, `scale_1`, no `scale_2`) → 2DGS surfels, faces carrying
 //!   `opacity` and `sigma` → triangle soup, faces → mesh, vertices only →
 //!   point cloud;
 //! - `.pt` (Triangle Splatting checkpoint) → triangle soup;
@@ -23,7 +24,9 @@ use crate::io::detect::{FileFormat, PlyKind};
 use crate::io::ply::{Format, Header};
 use crate::io::source::shown;
 use crate::io::{Input, gltf, obj, off, ply, read_input, torch_pt, write_output};
-use crate::model::{BoundGaussians, Gaussians, Mesh, PointCloud, Scene, SceneKind, TriangleSoup};
+use crate::model::{
+    BoundGaussians, Gaussians, Mesh, PointCloud, Scene, SceneKind, Surfels, TriangleSoup,
+};
 use crate::{Error, Result};
 
 /// An input read once (file or stdin), with its detected format and, for a
@@ -57,6 +60,7 @@ impl Opened {
             }
             FileFormat::Ply => match self.ply_kind.unwrap_or(PlyKind::Other) {
                 PlyKind::Gaussians | PlyKind::CompressedGaussians => SceneKind::Gaussians,
+                PlyKind::Surfels => SceneKind::Surfels,
                 PlyKind::TriangleSoup => SceneKind::TriangleSoup,
                 PlyKind::Mesh => SceneKind::Mesh,
                 PlyKind::PointCloud => SceneKind::PointCloud,
@@ -64,7 +68,7 @@ impl Opened {
                     return Err(Error::format(
                         name,
                         "a PLY with no 'vertex' element holding x: not a scene (points, mesh, \
-                         Gaussians or triangle splats)",
+                         Gaussians, surfels or triangle splats)",
                     ));
                 }
             },
@@ -91,6 +95,7 @@ impl Opened {
             (SceneKind::Gaussians, _) => {
                 Scene::Gaussians(ply::gaussians::parse_gaussians(name, bytes)?)
             }
+            (SceneKind::Surfels, _) => Scene::Surfels(ply::surfels::parse_surfels(name, bytes)?),
             (SceneKind::PointCloud, _) => {
                 Scene::PointCloud(ply::points::parse_points(name, bytes)?)
             }
@@ -128,6 +133,16 @@ impl Opened {
             SceneKind::list(accepts),
             found.phrase()
         );
+        // 2DGS surfels where 3D Gaussians are wanted: say what tells them apart.
+        if found == SceneKind::Surfels && accepts.contains(&SceneKind::Gaussians) {
+            return Error::format(
+                self.name(),
+                format!(
+                    "{takes} (a 2DGS model: two scales per splat, scale_0 and scale_1, no \
+                     scale_2); {command} works on 3D Gaussians only"
+                ),
+            );
+        }
         // A PLY meant to be Gaussians: say which 3DGS properties are missing.
         if self.format == FileFormat::Ply
             && accepts.contains(&SceneKind::Gaussians)
@@ -198,6 +213,22 @@ pub fn load_gaussians(path: &Path, command: &str) -> Result<Gaussians> {
         Scene::Gaussians(g) => Ok(g),
         _ => unreachable!("load_kinds returns an accepted kind"),
     }
+}
+
+/// Loads 2DGS surfels.
+pub fn load_surfels(path: &Path, command: &str) -> Result<Surfels> {
+    match load_kinds(path, command, &[SceneKind::Surfels])? {
+        Scene::Surfels(s) => Ok(s),
+        _ => unreachable!("load_kinds returns an accepted kind"),
+    }
+}
+
+/// Writes surfels as a binary little-endian 2DGS PLY, atomically
+/// (`-` = stdout).
+pub fn save_surfels(path: &Path, s: &Surfels) -> Result<()> {
+    write_output(path, |w| {
+        ply::surfels::write_surfels(w, s, Format::BinaryLittleEndian)
+    })
 }
 
 /// Loads Gaussians bound to a mesh (a file written by `bind-gaussians` or
@@ -473,7 +504,8 @@ pub fn save_points(path: &Path, points: &PointCloud, format: Format) -> Result<(
     write_output(path, |w| ply::points::write_points(w, points, format))
 }
 
-/// Writes any scene in its natural file (Gaussians: 3DGS PLY; soup: soup
+/// Writes any scene in its natural file (Gaussians: 3DGS PLY; surfels: 2DGS
+/// PLY; soup: soup
 /// PLY or `.pt`; mesh: `f`; points: binary PLY), atomically.
 pub fn save(path: &Path, scene: &Scene, f: FileFormat) -> Result<()> {
     match scene {
@@ -487,6 +519,15 @@ pub fn save(path: &Path, scene: &Scene, f: FileFormat) -> Result<()> {
             write_output(path, |w| {
                 ply::gaussians::write_gaussians(w, g, Format::BinaryLittleEndian)
             })
+        }
+        Scene::Surfels(s) => {
+            if f != FileFormat::Ply {
+                return Err(Error::invalid(format!(
+                    "surfels are written as a 2DGS ply, not {}",
+                    f.name()
+                )));
+            }
+            save_surfels(path, s)
         }
         Scene::TriangleSoup(s) => save_soup(path, s, f),
         Scene::Mesh(m) => save_mesh(path, m, f, &MeshWriteOptions::default()),

@@ -52,7 +52,8 @@ pub struct FileInfo {
     pub path: String,
     /// File format (`ply`, `obj`, `off`, `glb`, `gltf`, `pt`, `npz`, `json`, `colmap`, …).
     pub format: String,
-    /// What the file holds: `gaussians`, `triangle-soup`, `mesh`, `point-cloud`, `cameras`, …
+    /// What the file holds: `gaussians`, `surfels` (2DGS), `triangle-soup`, `mesh`,
+    /// `point-cloud`, `cameras`, …
     pub kind: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub encoding: Option<String>,
@@ -64,6 +65,9 @@ pub struct FileInfo {
     pub points: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gaussians: Option<usize>,
+    /// 2DGS surfels (a `surfels` PLY).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surfels: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub triangles: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -284,18 +288,13 @@ fn describe_ply(opened: &any::Opened, info: &mut FileInfo) -> Result<()> {
         }
     }
     match kind {
+        PlyKind::Surfels => {
+            info.surfels = count("vertex");
+            info.sh_degree = sh_degree_of(h);
+        }
         PlyKind::Gaussians => {
             info.gaussians = count("vertex");
-            let rest = h.element("vertex").map_or(0, |v| {
-                v.properties
-                    .iter()
-                    .filter(|p| p.name.starts_with("f_rest_"))
-                    .count()
-            });
-            info.sh_degree = [(0, 0), (9, 1), (24, 2), (45, 3)]
-                .iter()
-                .find(|(m, _)| *m == rest)
-                .map(|(_, d)| *d);
+            info.sh_degree = sh_degree_of(h);
             let bound_faces = h.element(crate::io::ply::bound::MESH_FACE);
             let bound_verts = h.element(crate::io::ply::bound::MESH_VERTEX);
             let has_binding = h.element("vertex").is_some_and(|v| {
@@ -336,6 +335,21 @@ fn describe_ply(opened: &any::Opened, info: &mut FileInfo) -> Result<()> {
     Ok(())
 }
 
+/// The SH degree of a splat PLY's vertex element from its count of
+/// `f_rest_*` properties (0, 9, 24, 45); `None` for another count.
+fn sh_degree_of(h: &crate::io::ply::Header) -> Option<usize> {
+    let rest = h.element("vertex").map_or(0, |v| {
+        v.properties
+            .iter()
+            .filter(|p| p.name.starts_with("f_rest_"))
+            .count()
+    });
+    [(0, 0), (9, 1), (24, 2), (45, 3)]
+        .iter()
+        .find(|(m, _)| *m == rest)
+        .map(|(_, d)| *d)
+}
+
 /// Groups digits by thousands: 35947 → "35,947".
 pub fn thousands(n: usize) -> String {
     let s = n.to_string();
@@ -360,9 +374,15 @@ pub fn render_text(i: &FileInfo) -> String {
         .map(|e| format!(" ({e})"))
         .unwrap_or_default();
     let _ = writeln!(s, "  format:     {}{enc}", i.format);
-    let _ = writeln!(s, "  kind:       {}", i.kind);
+    let what = if i.kind == "surfels" {
+        " (2DGS surfels)"
+    } else {
+        ""
+    };
+    let _ = writeln!(s, "  kind:       {}{what}", i.kind);
     for (label, v) in [
         ("gaussians", i.gaussians),
+        ("surfels", i.surfels),
         ("triangles", i.triangles),
         ("points", i.points),
         ("vertices", i.vertices),

@@ -107,6 +107,8 @@ impl FileFormat {
 pub enum PlyKind {
     /// A standard 3DGS Gaussian splat file.
     Gaussians,
+    /// A 2DGS surfel file (the 3DGS layout with two scales).
+    Surfels,
     /// A SuperSplat compressed splat file (packed chunks).
     CompressedGaussians,
     /// A triangle-splat soup (faces carry opacity and sigma).
@@ -130,6 +132,10 @@ impl PlyKind {
             return PlyKind::CompressedGaussians;
         }
         if has("f_dc_0") && has("opacity") && has("scale_0") && has("rot_0") {
+            // 2DGS writes the 3DGS layout with two scales
+            if has("scale_1") && !has("scale_2") {
+                return PlyKind::Surfels;
+            }
             return PlyKind::Gaussians;
         }
         match h.element("face") {
@@ -146,6 +152,7 @@ impl PlyKind {
     pub fn name(self) -> &'static str {
         match self {
             PlyKind::Gaussians => "gaussians",
+            PlyKind::Surfels => "surfels",
             PlyKind::CompressedGaussians => "gaussians-compressed",
             PlyKind::TriangleSoup => "triangle-soup",
             PlyKind::Mesh => "mesh",

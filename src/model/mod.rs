@@ -18,6 +18,7 @@ pub mod point_cloud;
 pub mod rig;
 pub mod rng;
 pub mod scene;
+pub mod surfels;
 pub mod texture;
 pub mod transform;
 pub mod triangle_soup;
@@ -25,7 +26,8 @@ pub mod view;
 
 /// SH coefficients of item `i`, coefficient-major with the DC term at k = 0,
 /// from a DC array and a coefficient-major `rest` array with `k` higher-order
-/// coefficients per channel (the layout of [`Gaussians`] and [`TriangleSoup`]).
+/// coefficients per channel (the layout of [`Gaussians`], [`Surfels`] and
+/// [`TriangleSoup`]).
 pub fn sh_coeffs_of(dc: &[[f32; 3]], rest: &[f32], k: usize, i: usize) -> Vec<[f32; 3]> {
     let mut out = Vec::with_capacity(k + 1);
     out.push(dc[i]);
@@ -65,6 +67,7 @@ pub use obs_mask::ObsMask;
 pub use orbit::OrbitSpec;
 pub use point_cloud::PointCloud;
 pub use scene::{Scene, SceneKind};
+pub use surfels::Surfels;
 pub use texture::Texture;
 pub use transform::Similarity;
 pub use triangle_soup::TriangleSoup;

@@ -2,13 +2,15 @@
 //! type every command receives its input as, so that each command states
 //! which kinds it accepts and refuses the others the same way.
 
-use super::{Gaussians, Mesh, PointCloud, TriangleSoup};
+use super::{Gaussians, Mesh, PointCloud, Surfels, TriangleSoup};
 
 /// The kinds of scene a file can hold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SceneKind {
     /// 3D Gaussian splats (a 3DGS PLY).
     Gaussians,
+    /// 2DGS surfels (a 2DGS PLY: two scales per splat).
+    Surfels,
     /// Triangle splats (a Triangle Splatting checkpoint or soup PLY).
     TriangleSoup,
     /// A triangle mesh (PLY with faces, OBJ, OFF, glTF/GLB).
@@ -18,11 +20,12 @@ pub enum SceneKind {
 }
 
 impl SceneKind {
-    /// Lower-case name, as `info` prints it (`gaussians`, `triangle-soup`,
-    /// `mesh`, `point-cloud`).
+    /// Lower-case name, as `info` prints it (`gaussians`, `surfels`,
+    /// `triangle-soup`, `mesh`, `point-cloud`).
     pub fn name(self) -> &'static str {
         match self {
             SceneKind::Gaussians => "gaussians",
+            SceneKind::Surfels => "surfels",
             SceneKind::TriangleSoup => "triangle-soup",
             SceneKind::Mesh => "mesh",
             SceneKind::PointCloud => "point-cloud",
@@ -33,6 +36,7 @@ impl SceneKind {
     pub fn phrase(self) -> &'static str {
         match self {
             SceneKind::Gaussians => "Gaussian splats",
+            SceneKind::Surfels => "2DGS surfels",
             SceneKind::TriangleSoup => "a triangle-splat soup",
             SceneKind::Mesh => "a mesh",
             SceneKind::PointCloud => "a point cloud",
@@ -54,6 +58,7 @@ impl SceneKind {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Scene {
     Gaussians(Gaussians),
+    Surfels(Surfels),
     TriangleSoup(TriangleSoup),
     Mesh(Mesh),
     PointCloud(PointCloud),
@@ -64,6 +69,7 @@ impl Scene {
     pub fn kind(&self) -> SceneKind {
         match self {
             Scene::Gaussians(_) => SceneKind::Gaussians,
+            Scene::Surfels(_) => SceneKind::Surfels,
             Scene::TriangleSoup(_) => SceneKind::TriangleSoup,
             Scene::Mesh(_) => SceneKind::Mesh,
             Scene::PointCloud(_) => SceneKind::PointCloud,
@@ -83,7 +89,7 @@ impl Scene {
                 normals: m.normals,
                 extras: Default::default(),
             }),
-            Scene::Gaussians(_) | Scene::TriangleSoup(_) => None,
+            Scene::Gaussians(_) | Scene::Surfels(_) | Scene::TriangleSoup(_) => None,
         }
     }
 }
@@ -91,6 +97,11 @@ impl Scene {
 impl From<Gaussians> for Scene {
     fn from(g: Gaussians) -> Self {
         Scene::Gaussians(g)
+    }
+}
+impl From<Surfels> for Scene {
+    fn from(s: Surfels) -> Self {
+        Scene::Surfels(s)
     }
 }
 impl From<TriangleSoup> for Scene {
@@ -124,6 +135,10 @@ mod tests {
         assert_eq!(
             SceneKind::list(&[Gaussians, TriangleSoup, Mesh]),
             "Gaussian splats, a triangle-splat soup or a mesh"
+        );
+        assert_eq!(
+            SceneKind::list(&[Gaussians, Surfels]),
+            "Gaussian splats or 2DGS surfels"
         );
     }
 

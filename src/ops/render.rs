@@ -1,4 +1,5 @@
-//! `render`: renders a Gaussian PLY, a triangle-splat soup or a mesh from a
+//! `render`: renders a Gaussian PLY, a 2DGS surfel PLY, a triangle-splat
+//! soup or a mesh from a
 //! camera file (or an orbit around the scene) to PNG colour, depth (float32
 //! `.npy` and 16-bit PNG), alpha and normal images, and optionally compares
 //! the colour renders with ground-truth images (PSNR, SSIM).
@@ -18,6 +19,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use splatkit_render::gaussian::{self, Filter2d, RasterSettings, RenderOutput};
 use splatkit_render::loss::{psnr, ssim};
+use splatkit_render::surfel::{self, SurfelSettings};
 use splatkit_render::{mesh as zbuffer, triangle};
 
 use crate::cli::filter2d::Filter2dArgs;
@@ -56,12 +58,14 @@ pub enum Shading {
 #[command(after_help = "Examples:
   render point_cloud.ply --cameras cameras.json -o renders/
   render scene.pt --cameras sparse/0 -o renders/ --compare images/ --json
+  render 2dgs_model.ply --cameras cameras.json -o renders/ --depth-ratio 0   # 2DGS surfels, 2DGS's surf_depth
   render mesh.ply --cameras cameras.npz -o depth/ --outputs depth --depth-scale 1000
   render biker.ply --orbit 8 --up 0,-1,0 -o orbit/     # no camera file: orbit the scene
   render textured.obj --cameras cameras.json --shading none -o views/  # texture as baked")]
 pub struct RenderArgs {
-    /// Scene: 3DGS Gaussian PLY, Triangle Splatting `.pt` or soup PLY, or a
-    /// mesh (PLY, OBJ, OFF, glTF/GLB).
+    /// Scene: 3DGS Gaussian PLY, 2DGS surfel PLY (rendered with 2DGS's
+    /// surfel rasteriser), Triangle Splatting `.pt` or soup PLY, or a mesh
+    /// (PLY, OBJ, OFF, glTF/GLB).
     pub scene: PathBuf,
     /// Camera file or folder (COLMAP, cameras.json, transforms.json,
     /// cameras.npz). Without it, `--orbit` cameras are used and written to
@@ -111,6 +115,7 @@ pub struct RenderArgs {
 /// A scene ready to rasterise.
 enum Raster {
     Gaussians(gaussian::Gaussians3),
+    Surfels(surfel::Surfels2),
     Triangles(triangle::Triangles3),
     Mesh(Mesh),
 }
@@ -119,6 +124,7 @@ impl Raster {
     fn kind(&self) -> &'static str {
         match self {
             Raster::Gaussians(_) => "gaussians",
+            Raster::Surfels(_) => "surfels",
             Raster::Triangles(_) => "triangles",
             Raster::Mesh(_) => "mesh",
         }
@@ -127,6 +133,7 @@ impl Raster {
     fn len(&self) -> usize {
         match self {
             Raster::Gaussians(g) => g.len(),
+            Raster::Surfels(s) => s.len(),
             Raster::Triangles(t) => t.len(),
             Raster::Mesh(m) => m.faces.len(),
         }
@@ -136,6 +143,7 @@ impl Raster {
     fn points(&self) -> Vec<[f32; 3]> {
         match self {
             Raster::Gaussians(g) => g.means.clone(),
+            Raster::Surfels(s) => s.means.clone(),
             Raster::Triangles(t) => t.vertices.iter().flatten().copied().collect(),
             Raster::Mesh(m) => m.vertices.clone(),
         }
@@ -174,6 +182,7 @@ pub fn render_bytes(largest_pixels: u64, compare: bool) -> u64 {
 fn load_scene(path: &Path, filter: &Filter2dArgs) -> anyhow::Result<(Raster, Filter2d)> {
     let accepts = [
         SceneKind::Gaussians,
+        SceneKind::Surfels,
         SceneKind::TriangleSoup,
         SceneKind::Mesh,
     ];
@@ -185,6 +194,7 @@ fn load_scene(path: &Path, filter: &Filter2dArgs) -> anyhow::Result<(Raster, Fil
             filtered = f;
             Raster::Gaussians(g.to_raster())
         }
+        model::Scene::Surfels(s) => Raster::Surfels(s.to_raster()),
         model::Scene::TriangleSoup(t) => Raster::Triangles(t.to_raster()),
         model::Scene::Mesh(m) => Raster::Mesh(m),
         model::Scene::PointCloud(_) => unreachable!("load_kinds returns an accepted kind"),
@@ -284,6 +294,15 @@ pub fn shade_mesh(
 fn render_view(scene: &Raster, cam: &Camera, s: &RasterSettings, shading: Shading) -> RenderOutput {
     match scene {
         Raster::Gaussians(g) => gaussian::render(g, cam, s),
+        Raster::Surfels(sf) => surfel::render(
+            sf,
+            cam,
+            &SurfelSettings {
+                background: s.background,
+                near: s.near,
+                ..SurfelSettings::default()
+            },
+        ),
         Raster::Triangles(t) => triangle::render(t, cam, s),
         Raster::Mesh(m) => shade_mesh(
             m,

@@ -1,6 +1,9 @@
-//! `splat2points`: a 3DGS scene to an oriented, coloured point cloud for
-//! `poisson` — SuGaR's level-set sampling ([`crate::geom::surface_points::levelset`]) or the
-//! quick `centers` / `depth` methods ([`crate::geom::surface_points::splat_points`]).
+//! `splat2points`: a 3DGS or 2DGS scene to an oriented, coloured point cloud
+//! for `poisson` — SuGaR's level-set sampling
+//! ([`crate::geom::surface_points::levelset`]) or the quick `centers` /
+//! `depth` methods ([`crate::geom::surface_points::splat_points`]); for 2DGS
+//! surfels, their rendered depth or centres
+//! ([`crate::geom::surface_points::surfel_points`]).
 
 use std::path::{Path, PathBuf};
 
@@ -14,20 +17,23 @@ use crate::cli::{Common, fraction_f32, nonneg_f64, shown, usage};
 use crate::geom::scenes::orbit::orbit_rings;
 use crate::geom::surface_points::levelset::{DepthSource, LevelsetOptions, to_point_cloud};
 use crate::geom::surface_points::splat_points::{PointMethod, splat_to_points};
-use crate::io::any::{load_gaussians, save_points};
+use crate::geom::surface_points::surfel_points::surfels_to_points;
+use crate::io::any::{load_kinds, save_points};
 use crate::io::cameras::read_cameras;
 use crate::io::ply::Format;
-use crate::model::{Camera, OrbitSpec};
+use crate::model::{Camera, OrbitSpec, Scene, SceneKind};
 use splatkit_render::gaussian::{Filter2d, Gaussians3};
+use splatkit_render::surfel::Surfels2;
 
 /// How points are made.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Method {
-    /// SuGaR's level-set sampling along camera rays.
+    /// SuGaR's level-set sampling along camera rays (3D Gaussians only).
     Levelset,
     /// Gaussian centres, normals from the shortest axis.
     Centers,
-    /// Back-projected median-depth maps, normals from depth gradients.
+    /// Back-projected median-depth maps, normals from depth gradients (for
+    /// 2DGS surfels: their rendered surface).
     Depth,
 }
 
@@ -64,10 +70,11 @@ impl DepthArg {
   splat2points scene.ply --cameras sparse/0 --level 0.1,0.3,0.5 --provenance -o points.ply
   splat2points scene.ply --cameras cameras.json | poisson - --depth 10 -o mesh.ply
   splat2points scene.ply --cameras cameras.json --method centers -o centres.ply
-  splat2points biker.ply --orbit 24 --elevation 30,-20 --size 1024x768 -o points.ply   # no cameras: orbit")]
+  splat2points biker.ply --orbit 24 --elevation 30,-20 --size 1024x768 -o points.ply   # no cameras: orbit
+  splat2points 2dgs_output/ -o points.ply                   # 2DGS surfels: their rendered depth (--method depth)")]
 pub struct Splat2PointsArgs {
-    /// A 3DGS Gaussian PLY, or a 3DGS model folder (uses
-    /// `point_cloud/iteration_*/point_cloud.ply` and `cameras.json`).
+    /// A 3DGS Gaussian PLY or 2DGS surfel PLY, or a 3DGS / 2DGS model folder
+    /// (uses `point_cloud/iteration_*/point_cloud.ply` and `cameras.json`).
     pub scene: PathBuf,
     /// Camera file or folder (default: `cameras.json` of a model folder, or
     /// `--orbit` cameras).
@@ -76,8 +83,10 @@ pub struct Splat2PointsArgs {
     /// Output PLY; `-` = stdout.
     #[arg(short, long, default_value = "-")]
     pub output: PathBuf,
-    #[arg(long, value_enum, default_value = "levelset")]
-    pub method: Method,
+    /// How points are made [default: levelset for Gaussians, depth for 2DGS
+    /// surfels, which have no level set].
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
     /// Density levels λ (comma-separated; each gives its own points).
     #[arg(
         long,
@@ -95,7 +104,7 @@ pub struct Splat2PointsArgs {
     /// Total point cap over all views, per level.
     #[arg(long, default_value_t = 10_000_000, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1u64 << 40))]
     pub max_points: usize,
-    /// Gaussians with opacity at or below this are dropped.
+    /// Gaussians (surfels) with opacity at or below this are dropped.
     #[arg(long, default_value_t = 0.5, value_parser = fraction_f32)]
     pub min_opacity: f32,
     /// Hold out every N-th camera (name-sorted, from the first) as 3DGS's
@@ -197,15 +206,22 @@ pub fn training_views(mut cams: Vec<Camera>, n: usize) -> Vec<Camera> {
         .collect()
 }
 
-/// How many Gaussians with opacity above `min_opacity` have their centre
-/// inside the image of at least one camera, in front of its near plane.
-pub fn seen_by_any(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> usize {
+/// How many splats (centres `means`, activated `opacities`) with opacity
+/// above `min_opacity` have their centre inside the image of at least one
+/// camera, in front of its near plane.
+pub fn seen_by_any(
+    means: &[[f32; 3]],
+    opacities: &[f32],
+    cams: &[Camera],
+    min_opacity: f32,
+    near: f64,
+) -> usize {
     use rayon::prelude::*;
-    (0..g.len())
+    (0..means.len())
         .into_par_iter()
-        .filter(|&i| g.opacities[i] > min_opacity)
+        .filter(|&i| opacities[i] > min_opacity)
         .filter(|&i| {
-            let m = g.means[i];
+            let m = means[i];
             let p = glam::DVec3::new(m[0] as f64, m[1] as f64, m[2] as f64);
             cams.iter().any(|c| {
                 c.project(p).is_some_and(|(px, z)| {
@@ -243,22 +259,28 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     args.common.check_output(&args.output, true)?;
     let t0 = std::time::Instant::now();
     let (scene, cam_path, orbit) = resolve_inputs(&args)?;
-    let g = load_gaussians(&scene, "splat2points")
-        .with_context(|| format!("reading {}", shown(&scene, false)))?;
-    // a `filter_3D` property (Mip-Splatting, GOF) is baked into the scales
+    let (g, filtered) = load_splats(&scene)?;
+    // a `filter_3D` property (Mip-Splatting, GOF) was baked into the scales
     // and opacities, and picks the Mip filter under `--filter-2d auto`
-    let (g, filtered) = crate::model::filter3d::baked_for_rendering(g)
-        .map_err(|e| e.in_file(shown(&scene, false)))?;
-    let g = g.to_raster();
     let filter_2d = crate::model::filter3d::choose_filter_2d(
         args.filter.choice(),
         args.filter.kernel_size,
         filtered,
     );
-    let views = sample_cameras(&args, &g, cam_path.as_deref(), orbit.as_ref())?;
+    let method = args.method.unwrap_or(match g {
+        Splats::Gaussians(_) => Method::Levelset,
+        Splats::Surfels(_) => Method::Depth,
+    });
+    if let (Splats::Surfels(_), Method::Levelset) = (&g, method) {
+        return Err(usage(
+            "--method levelset needs 3D Gaussians: 2DGS surfels are flat discs with no density \
+             level set; use --method depth (their rendered surface, the default) or centers",
+        ));
+    }
+    let views = sample_cameras(&args, g.means(), cam_path.as_deref(), orbit.as_ref())?;
     check_seen(&args, &g, &views, &scene)?;
     let pb = args.common.progress(views.cams.len() as u64, "views");
-    let method = match args.method {
+    let point_method = match method {
         Method::Levelset => PointMethod::Levelset(LevelsetOptions {
             levels: args.level.clone(),
             max_points: args.max_points,
@@ -280,15 +302,72 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
             filter_2d,
         },
     };
-    let points = splat_to_points(&g, &views.cams, &method, |_| pb.inc(1))?;
+    let points = match &g {
+        Splats::Gaussians(g) => splat_to_points(g, &views.cams, &point_method, |_| pb.inc(1))?,
+        Splats::Surfels(s) => surfels_to_points(s, &views.cams, &point_method, |_| pb.inc(1))?,
+    };
     pb.finish_and_clear();
     let n = points.positions.len();
     if n == 0 {
-        return Err(no_points_error(&args, &scene, &views.source));
+        return Err(no_points_error(&args, method, &scene, &views.source));
     }
     let pc = to_point_cloud(points, args.provenance);
     save_points(&args.output, &pc, Format::BinaryLittleEndian)?;
-    report(&args, &scene, &g, filter_2d, &views, n, t0)
+    report(&args, method, &scene, &g, filter_2d, &views, n, t0)
+}
+
+/// The splats points are made from, activated.
+enum Splats {
+    Gaussians(Gaussians3),
+    Surfels(Surfels2),
+}
+
+impl Splats {
+    fn means(&self) -> &[[f32; 3]] {
+        match self {
+            Splats::Gaussians(g) => &g.means,
+            Splats::Surfels(s) => &s.means,
+        }
+    }
+
+    fn opacities(&self) -> &[f32] {
+        match self {
+            Splats::Gaussians(g) => &g.opacities,
+            Splats::Surfels(s) => &s.opacities,
+        }
+    }
+
+    /// "Gaussians" or "surfels", for messages and the report.
+    fn noun(&self) -> &'static str {
+        match self {
+            Splats::Gaussians(_) => "Gaussians",
+            Splats::Surfels(_) => "surfels",
+        }
+    }
+}
+
+/// The scene file as activated splats: 3DGS Gaussians, or 2DGS surfels
+/// (refused with a NaN or infinite value, naming the surfel and property),
+/// and whether a `filter_3D` property was baked into the Gaussians.
+fn load_splats(scene: &Path) -> anyhow::Result<(Splats, bool)> {
+    let name = shown(scene, false);
+    let accepts = [SceneKind::Gaussians, SceneKind::Surfels];
+    Ok(
+        match load_kinds(scene, "splat2points", &accepts)
+            .with_context(|| format!("reading {name}"))?
+        {
+            Scene::Gaussians(g) => {
+                let (g, filtered) = crate::model::filter3d::baked_for_rendering(g)
+                    .map_err(|e| e.in_file(&name))?;
+                (Splats::Gaussians(g.to_raster()), filtered)
+            }
+            Scene::Surfels(s) => {
+                crate::io::ply::surfels::check_finite(&name, &s)?;
+                (Splats::Surfels(s.to_raster()), false)
+            }
+            _ => unreachable!("load_kinds returns an accepted kind"),
+        },
+    )
 }
 
 /// The scene's Gaussian PLY, the camera file (`--cameras`, else a model
@@ -342,7 +421,7 @@ struct Views {
 /// the memory budget.
 fn sample_cameras(
     args: &Splat2PointsArgs,
-    g: &Gaussians3,
+    means: &[[f32; 3]],
     cam_path: Option<&Path>,
     orbit: Option<&OrbitSpec>,
 ) -> anyhow::Result<Views> {
@@ -363,7 +442,7 @@ fn sample_cameras(
         }
         (None, Some(_)) => {
             let spec = orbit.expect("checked above");
-            let cams = orbit_rings(&g.means, spec).with_context(|| {
+            let cams = orbit_rings(means, spec).with_context(|| {
                 format!(
                     "{}: no usable --orbit around this scene (check its coordinates, or give \
                      --radius or --cameras)",
@@ -403,31 +482,32 @@ fn sample_cameras(
     })
 }
 
-/// Nothing to sample from, said before any work: no Gaussian with opacity
-/// above `--min-opacity`, or none of them seen by a camera.
+/// Nothing to sample from, said before any work: no Gaussian (surfel) with
+/// opacity above `--min-opacity`, or none of them seen by a camera.
 fn check_seen(
     args: &Splat2PointsArgs,
-    g: &Gaussians3,
+    g: &Splats,
     views: &Views,
     scene: &Path,
 ) -> anyhow::Result<()> {
     let (cams, cam_source) = (&views.cams, &views.source);
+    let noun = g.noun();
     let opaque = g
-        .opacities
+        .opacities()
         .iter()
         .filter(|&&o| o > args.min_opacity)
         .count();
     if opaque == 0 {
         bail!(
-            "{}: none of its {} Gaussians has opacity above --min-opacity {}: no points to make",
+            "{}: none of its {} {noun} has opacity above --min-opacity {}: no points to make",
             shown(scene, false),
-            g.len(),
+            g.means().len(),
             args.min_opacity
         );
     }
-    if seen_by_any(g, cams, args.min_opacity, args.near) == 0 {
+    if seen_by_any(g.means(), g.opacities(), cams, args.min_opacity, args.near) == 0 {
         bail!(
-            "none of the {} cameras ({cam_source}) sees any of the {opaque} opaque Gaussians \
+            "none of the {} cameras ({cam_source}) sees any of the {opaque} opaque {noun} \
              of {} (check that the cameras belong to this scene: axes, units, world up)",
             cams.len(),
             shown(scene, false)
@@ -437,11 +517,16 @@ fn check_seen(
 }
 
 /// The error of a run that made no point, with the method's likely cause.
-fn no_points_error(args: &Splat2PointsArgs, scene: &Path, cam_source: &str) -> anyhow::Error {
+fn no_points_error(
+    args: &Splat2PointsArgs,
+    method: Method,
+    scene: &Path,
+    cam_source: &str,
+) -> anyhow::Error {
     anyhow::anyhow!(
         "{}: no points: {} (cameras {cam_source}); nothing written",
         shown(scene, false),
-        match args.method {
+        match method {
             Method::Levelset => format!(
                 "no ray crossed the level(s) --level {} (try a lower --level or --depth median)",
                 args.level
@@ -450,7 +535,7 @@ fn no_points_error(args: &Splat2PointsArgs, scene: &Path, cam_source: &str) -> a
                     .collect::<Vec<_>>()
                     .join(",")
             ),
-            Method::Centers => "no opaque Gaussian centre is seen by a camera".to_string(),
+            Method::Centers => "no opaque splat centre is seen by a camera".to_string(),
             Method::Depth => "no view has a pixel with depth".to_string(),
         }
     )
@@ -460,8 +545,9 @@ fn no_points_error(args: &Splat2PointsArgs, scene: &Path, cam_source: &str) -> a
 /// from `views`, seconds since `t0`.
 fn report(
     args: &Splat2PointsArgs,
+    method: Method,
     scene: &Path,
-    g: &Gaussians3,
+    g: &Splats,
     filter_2d: Filter2d,
     views: &Views,
     n: usize,
@@ -469,26 +555,27 @@ fn report(
 ) -> anyhow::Result<()> {
     let (n_all, cam_source) = (views.n_all, &views.source);
     let views = views.cams.len();
+    let count = g.means().len();
     args.common.say(format!(
-        "splat2points: {} Gaussians, {} of {n_all} views -> {n} points ({:?}, {:.1} s)",
-        g.len(),
+        "splat2points: {count} {}, {} of {n_all} views -> {n} points ({method:?}, {:.1} s)",
+        g.noun(),
         views,
-        args.method,
         t0.elapsed().as_secs_f64()
     ));
-    args.common.emit_json(&json!({
+    let mut report = json!({
         "scene": shown(scene, false),
         "cameras": cam_source,
         "views": views,
         "views_total": n_all,
-        "gaussians": g.len(),
         "points": n,
-        "method": format!("{:?}", args.method).to_lowercase(),
-        "depth": (args.method == Method::Levelset).then(|| format!("{:?}", args.depth).to_lowercase()),
+        "method": format!("{method:?}").to_lowercase(),
+        "depth": (method == Method::Levelset).then(|| format!("{:?}", args.depth).to_lowercase()),
         "levels": args.level,
         "filter_2d": crate::model::filter3d::filter_2d_label(filter_2d),
         "output": shown(&args.output, true),
         "seconds": t0.elapsed().as_secs_f64(),
-    }))?;
+    });
+    report[g.noun().to_lowercase()] = json!(count);
+    args.common.emit_json(&report)?;
     Ok(())
 }

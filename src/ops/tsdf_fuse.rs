@@ -3,8 +3,8 @@
 //! ScalableTSDFVolume and marching cubes, 2DGS's settings and cluster
 //! filter).
 //!
-//! The depth maps are rendered here from a scene (Gaussians, triangle splats
-//! or a mesh; [`crate::geom::meshing::tsdf::views`]) or read from files
+//! The depth maps are rendered here from a scene (Gaussians, 2DGS surfels,
+//! triangle splats or a mesh; [`crate::geom::meshing::tsdf::views`]) or read from files
 //! ([`crate::io::depth`]), one per camera, matched by image name. This module
 //! only resolves files, flags and progress.
 
@@ -33,12 +33,14 @@ use splatkit_render::gaussian::Filter2d;
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
   tsdf-fuse point_cloud.ply --cameras cameras.json -o fuse.ply          # 2DGS defaults from the cameras
+  tsdf-fuse 2dgs/point_cloud/iteration_30000/point_cloud.ply --cameras 2dgs/cameras.json -o fuse.ply   # 2DGS surfels, as its render.py
   tsdf-fuse scene.pt --cameras scan24/cameras.npz --masks scan24/mask --dtu -o fuse_post.ply
   tsdf-fuse --depth renders/ --cameras sparse/0 --color renders/ -o mesh.ply
   render scene.ply --cameras cams.json -o d/ --outputs rgb,depth && tsdf-fuse --depth d/ --color d/ --cameras cams.json -o m.ply")]
 pub struct TsdfFuseArgs {
-    /// Scene to render depth from: 3DGS Gaussian PLY, Triangle Splatting
-    /// `.pt` or soup PLY, or a mesh. Leave out with --depth.
+    /// Scene to render depth from: 3DGS Gaussian PLY, 2DGS surfel PLY
+    /// (rendered with 2DGS's surfel rasteriser), Triangle Splatting `.pt` or
+    /// soup PLY, or a mesh. Leave out with --depth.
     pub scene: Option<PathBuf>,
     /// Camera file or folder (COLMAP, cameras.json, transforms.json,
     /// cameras.npz); one depth map per camera.
@@ -62,9 +64,11 @@ pub struct TsdfFuseArgs {
     /// or grey / mean RGB) is below 0.5, as 2DGS does with alpha masks.
     #[arg(long, value_name = "DIR")]
     pub masks: Option<PathBuf>,
-    /// Rendered depth = (1 − r)·expected + r·median (2DGS `--depth_ratio`).
-    #[arg(long, default_value_t = 1.0, value_parser = unit_f64)]
-    pub depth_ratio: f64,
+    /// Rendered depth = (1 − r)·expected + r·median (2DGS `--depth_ratio`)
+    /// [default: 0 for 2DGS surfels (2DGS's own default), 1 otherwise and
+    /// with --dtu].
+    #[arg(long, value_parser = unit_f64)]
+    pub depth_ratio: Option<f64>,
     /// Voxel size, scene units [default: depth-trunc / --mesh-res].
     #[arg(long, value_parser = positive_f64)]
     pub voxel: Option<f64>,
@@ -228,9 +232,8 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
     let cams = read_fusion_cameras(&args)?;
     let files = find_view_files(&args, &cams)?;
     let (params, how, bounds) = plan(&args, &cams)?;
-    // the DTU recipe's ratio, 1, is also the default
-    let depth_ratio = args.depth_ratio as f32;
     let (scene, filter_2d) = load_fusion_scene(&args)?;
+    let depth_ratio = default_depth_ratio(&args, scene.as_ref());
     let with_color = !args.no_color
         && match &scene {
             Some(s) => s.has_color(),
@@ -268,6 +271,19 @@ pub fn run(args: TsdfFuseArgs) -> anyhow::Result<()> {
         clusters,
         t0.elapsed().as_secs_f64(),
     )
+}
+
+/// `--depth-ratio`, else the DTU recipe's 1, else 2DGS's default for its
+/// surfels, 0 (`PipelineParams.depth_ratio`: the mean depth, which its
+/// `render.py` fuses unless told otherwise), else 1 (the median depth,
+/// Triangle Splatting's and 2DGS's DTU setting).
+fn default_depth_ratio(args: &TsdfFuseArgs, scene: Option<&FusionScene>) -> f32 {
+    match (args.depth_ratio, args.dtu, scene) {
+        (Some(r), _, _) => r as f32,
+        (None, true, _) => 1.0,
+        (None, false, Some(FusionScene::Surfels(_))) => 0.0,
+        _ => 1.0,
+    }
 }
 
 /// The usage errors among the flags, and a `--depth`, `--color` or
@@ -398,6 +414,7 @@ fn load_fusion_scene(args: &TsdfFuseArgs) -> anyhow::Result<(Option<FusionScene>
     if let (Some(p), Some(sc)) = (&args.scene, &scene) {
         let n = match sc {
             FusionScene::Gaussians(g) => g.len(),
+            FusionScene::Surfels(s) => s.len(),
             FusionScene::Triangles(t) => t.len(),
             FusionScene::Mesh(m) => m.faces.len(),
         };
@@ -792,6 +809,7 @@ fn check_size(path: &Path, what: &str, cam: &Camera, w: usize, h: usize) -> anyh
 fn load_scene(path: &Path, filter: &Filter2dArgs) -> anyhow::Result<(FusionScene, Filter2d)> {
     let accepts = [
         SceneKind::Gaussians,
+        SceneKind::Surfels,
         SceneKind::TriangleSoup,
         SceneKind::Mesh,
     ];
@@ -806,6 +824,11 @@ fn load_scene(path: &Path, filter: &Filter2dArgs) -> anyhow::Result<(FusionScene
             let (g, f) = model::filter3d::baked_for_rendering(g).map_err(|e| e.in_file(&name))?;
             filtered = f;
             FusionScene::gaussians(&g.to_raster())
+        }
+        model::Scene::Surfels(s) => {
+            crate::io::ply::surfels::check_finite(&name, &s)?;
+            // DC colour only, as 2DGS's meshing pass (active_sh_degree = 0)
+            FusionScene::Surfels(s.to_raster_at(0))
         }
         model::Scene::TriangleSoup(t) => {
             crate::io::any::check_finite_soup(&name, &t)?;

@@ -20,7 +20,7 @@
 
 use rand::RngExt;
 use rayon::prelude::*;
-use splatkit_render::gaussian::{self, Filter2d, Gaussians3, RasterSettings};
+use splatkit_render::gaussian::{self, Filter2d, Gaussians3, RasterSettings, RenderOutput};
 use splatkit_render::sh::sh_to_rgb;
 
 use crate::geom::surface_points::diamond_zbuffer::diamond_zbuffer;
@@ -161,7 +161,7 @@ pub fn depth_points(
     seed: u64,
     near: f64,
     filter_2d: Filter2d,
-    mut progress: impl FnMut(usize),
+    progress: impl FnMut(usize),
 ) -> LevelPoints {
     let dc = dc_only(g);
     let s = RasterSettings {
@@ -169,10 +169,34 @@ pub fn depth_points(
         near,
         filter_2d,
     };
+    depth_points_of(
+        |cam| gaussian::render(&dc, cam, &s),
+        cams,
+        max_points,
+        seed,
+        false,
+        progress,
+    )
+}
+
+/// The core of [`depth_points`] for any splat renderer: `render(cam)` gives
+/// a view (colour on black, median depth, alpha), whose opaque median depth
+/// (alpha ≥ 0.5) is back-projected with depth-gradient normals (or, with
+/// `rendered_normals`, the render's own blended normal taken to world axes)
+/// and subsampled as the module docs say. Normals are turned toward the
+/// camera.
+pub fn depth_points_of(
+    render: impl Fn(&Camera) -> RenderOutput,
+    cams: &[Camera],
+    max_points: usize,
+    seed: u64,
+    rendered_normals: bool,
+    mut progress: impl FnMut(usize),
+) -> LevelPoints {
     let per_view = max_points / cams.len().max(1) + 1;
     let mut out = LevelPoints::default();
     for (ci, cam) in cams.iter().enumerate() {
-        let img = gaussian::render(&dc, cam, &s);
+        let img = render(cam);
         let (w, h) = (img.width, img.height);
         let d = &img.opaque_median_depth();
         let eye = cam.center();
@@ -191,11 +215,17 @@ pub fn depth_points(
                 let (l, r, u, b) = (p(o - 1), p(o + 1), p(o - w), p(o + w));
                 let dx = [r[0] - l[0], r[1] - l[1], r[2] - l[2]];
                 let dy = [b[0] - u[0], b[1] - u[1], b[2] - u[2]];
-                let mut n = [
-                    dx[1] * dy[2] - dx[2] * dy[1],
-                    dx[2] * dy[0] - dx[0] * dy[2],
-                    dx[0] * dy[1] - dx[1] * dy[0],
-                ];
+                let mut n = if rendered_normals {
+                    // camera to world axes: Rᵀ·n
+                    let c = glam::DVec3::from(img.normal[o].map(f64::from));
+                    (cam.rotation.transpose() * c).to_array()
+                } else {
+                    [
+                        dx[1] * dy[2] - dx[2] * dy[1],
+                        dx[2] * dy[0] - dx[0] * dy[2],
+                        dx[0] * dy[1] - dx[1] * dy[0],
+                    ]
+                };
                 let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
                 if !(len > 0.0 && len.is_finite()) {
                     return None;

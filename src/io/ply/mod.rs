@@ -4,7 +4,7 @@
 //! - [`read`]: body decoding into typed columns ([`Ply`]), with a located,
 //!   zero-copy view of binary elements ([`PlyReader::locate`]) for fast paths;
 //! - [`write`]: ASCII and binary writers;
-//! - [`gaussians`], [`mesh`], [`points`], [`soup`]: the file contracts that map
+//! - [`gaussians`], [`surfels`], [`mesh`], [`points`], [`soup`]: the file contracts that map
 //!   PLY elements to the [`crate::model`] types (docs/formats.md).
 //!
 //! Unknown elements and properties survive read-modify-write through
@@ -19,6 +19,7 @@ pub mod points;
 pub mod read;
 pub mod scalar;
 pub mod soup;
+pub mod surfels;
 pub mod write;
 
 pub use header::{Format, Header};

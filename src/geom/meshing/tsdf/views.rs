@@ -1,8 +1,10 @@
 //! The depth and colour maps that the meshing pass of 2DGS and Triangle
 //! Splatting fuses, rendered from a scene for one camera.
 //!
-//! - Gaussians and triangle splats are rendered with SH degree 0 (DC colour
-//!   only, 2DGS's `active_sh_degree = 0`) on a black background; depth is
+//! - Gaussians, 2DGS surfels and triangle splats are rendered with SH
+//!   degree 0 (DC colour only, 2DGS's `active_sh_degree = 0`) on a black
+//!   background (surfels with 2DGS's own rasteriser,
+//!   [`splatkit_render::surfel`], whose `surf_depth` this is); depth is
 //!   `(1 − r)·expected + r·median` ([`RenderOutput::surface_depth`]), r =
 //!   `depth_ratio`; colour is `(uint8)(clip(rgb, 0, 1)·255)` (truncation, as
 //!   2DGS casts);
@@ -16,6 +18,7 @@
 
 use splatkit_render::gaussian::{self, Filter2d, Gaussians3, RasterSettings, RenderOutput};
 use splatkit_render::mesh as zbuffer;
+use splatkit_render::surfel::{self, SurfelSettings, Surfels2};
 use splatkit_render::triangle::{self, Triangles3};
 
 use crate::model::{Camera, Mesh};
@@ -24,6 +27,8 @@ use crate::model::{Camera, Mesh};
 pub enum FusionScene {
     /// Gaussians (reduced to SH degree 0 by [`FusionScene::gaussians`]).
     Gaussians(Gaussians3),
+    /// 2DGS surfels (give them DC-only: `model::Surfels::to_raster_at(0)`).
+    Surfels(Surfels2),
     /// Triangle splats (reduced to SH degree 0 by [`FusionScene::triangles`]).
     Triangles(Triangles3),
     /// An opaque mesh.
@@ -41,11 +46,12 @@ impl FusionScene {
         FusionScene::Triangles(t.dc_only())
     }
 
-    /// Points that stand for the scene's extent (Gaussian means, triangle
-    /// corners, mesh vertices), for 2DGS's unbounded box.
+    /// Points that stand for the scene's extent (Gaussian and surfel means,
+    /// triangle corners, mesh vertices), for 2DGS's unbounded box.
     pub fn points(&self) -> Vec<[f32; 3]> {
         match self {
             FusionScene::Gaussians(g) => g.means.clone(),
+            FusionScene::Surfels(s) => s.means.clone(),
             FusionScene::Triangles(t) => t.vertices.iter().flatten().copied().collect(),
             FusionScene::Mesh(m) => m.vertices.clone(),
         }
@@ -101,6 +107,14 @@ pub fn render_view(
     let mut v = match scene {
         FusionScene::Gaussians(g) => splat_view(&gaussian::render(g, cam, &s), depth_ratio),
         FusionScene::Triangles(t) => splat_view(&triangle::render(t, cam, &s), depth_ratio),
+        FusionScene::Surfels(sf) => {
+            let settings = SurfelSettings {
+                background: [0.0; 3],
+                near,
+                ..SurfelSettings::default()
+            };
+            splat_view(&surfel::render(sf, cam, &settings), depth_ratio)
+        }
         FusionScene::Mesh(m) => {
             let z = zbuffer::render(&m.vertices, &m.faces, cam, near);
             let rgb = m.vertex_colors.as_ref().map(|c| {

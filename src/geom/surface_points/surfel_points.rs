@@ -1,0 +1,174 @@
+//! Oriented, coloured points of 2DGS surfels (`splat2points` on a 2DGS
+//! PLY), the counterparts of [`crate::geom::surface_points::splat_points`]'s
+//! two quick methods. SuGaR's level-set sampling does not apply: a surfel
+//! is flat, so its density has no level set around a surface (it is a disc
+//! of zero thickness), and 2DGS's own surface is its rendered depth.
+//!
+//! - [`surfel_depth_points`] (`--method depth`, the default for surfels):
+//!   per camera, the surfels are rendered with 2DGS's rasteriser
+//!   ([`splatkit_render::surfel`], DC colour, black background) and the
+//!   median depth where the alpha reaches 0.5 is back-projected through the
+//!   pixel centres as for Gaussians ([`depth_points_of`]), but with the
+//!   rendered normal (the alpha-blended disc normals, 2DGS's `rend_normal`,
+//!   taken to world axes and turned toward the camera) instead of the
+//!   depth gradient, which jumps where the front disc changes. The points
+//!   lie on the surface 2DGS's TSDF fusion meshes (its `surf_depth` at depth
+//!   ratio 1).
+//! - [`surfel_centers`] (`--method centers`): the centre of each surfel with
+//!   opacity above a threshold, its normal the disc normal (the rotation's
+//!   third column, 2DGS's `R[:, 2]`) signed by the sum, over the cameras
+//!   that see the centre (at the pixel of the centre, the rendered median
+//!   depth is 0 or not nearer than its depth minus 3 × its larger scale,
+//!   the rasteriser's cutoff), of the cosine between the normal and the
+//!   direction to the camera (so grazing views weigh little), or over all
+//!   cameras with the centre in view when none sees it; colour = the DC
+//!   colour C0·f_dc + 0.5.
+
+use rayon::prelude::*;
+use splatkit_render::sh::sh_to_rgb;
+use splatkit_render::surfel::{self, SurfelSettings, Surfels2};
+
+use crate::geom::surface_points::levelset::LevelPoints;
+use crate::geom::surface_points::splat_points::{PointMethod, depth_points_of};
+use crate::model::Camera;
+use crate::{Error, Result};
+
+/// Oriented, coloured points of `s` (activated values) seen from `cams` by
+/// `method`; `progress(i)` is called after each view the depth method
+/// renders. [`PointMethod::Levelset`] is refused (see the module docs).
+pub fn surfels_to_points(
+    s: &Surfels2,
+    cams: &[Camera],
+    method: &PointMethod,
+    progress: impl FnMut(usize),
+) -> Result<LevelPoints> {
+    Ok(match method {
+        PointMethod::Levelset(_) => {
+            return Err(Error::invalid(
+                "SuGaR's level-set sampling needs 3D Gaussians; 2DGS surfels are flat discs \
+                 with no density level set: use --method depth (their rendered surface) or \
+                 --method centers",
+            ));
+        }
+        PointMethod::Centers { min_opacity, near } => surfel_centers(s, cams, *min_opacity, *near),
+        PointMethod::Depth {
+            max_points,
+            seed,
+            near,
+            ..
+        } => surfel_depth_points(s, cams, *max_points, *seed, *near, progress),
+    })
+}
+
+/// `s` with only its DC colour (SH degree 0).
+fn dc_only(s: &Surfels2) -> Surfels2 {
+    let nc = (s.sh_degree + 1) * (s.sh_degree + 1);
+    Surfels2 {
+        sh: (0..s.len()).map(|i| s.sh[i * nc]).collect(),
+        sh_degree: 0,
+        ..s.clone()
+    }
+}
+
+fn settings(near: f64) -> SurfelSettings {
+    SurfelSettings {
+        background: [0.0; 3],
+        near,
+        ..SurfelSettings::default()
+    }
+}
+
+/// Back-projected surfel depth (see the module docs): at most about
+/// `max_points` in all (⌊max/N⌋ + 1 per view), chosen with `seed`.
+pub fn surfel_depth_points(
+    s: &Surfels2,
+    cams: &[Camera],
+    max_points: usize,
+    seed: u64,
+    near: f64,
+    progress: impl FnMut(usize),
+) -> LevelPoints {
+    let dc = dc_only(s);
+    let st = settings(near);
+    depth_points_of(
+        |cam| surfel::render(&dc, cam, &st),
+        cams,
+        max_points,
+        seed,
+        true,
+        progress,
+    )
+}
+
+/// Unit disc normal of surfel `i`: the third column of its normalised
+/// rotation (identity for a zero or non-finite quaternion).
+fn disc_normal(s: &Surfels2, i: usize) -> glam::DVec3 {
+    let r = s.rotations[i].map(f64::from);
+    let q = glam::DQuat::from_xyzw(r[1], r[2], r[3], r[0]);
+    let len = q.length();
+    let q = if len > 0.0 && len.is_finite() {
+        q / len
+    } else {
+        glam::DQuat::IDENTITY
+    };
+    q * glam::DVec3::Z
+}
+
+/// Surfel centres with opacity > `min_opacity` (see the module docs).
+pub fn surfel_centers(s: &Surfels2, cams: &[Camera], min_opacity: f32, near: f64) -> LevelPoints {
+    let keep: Vec<usize> = (0..s.len())
+        .filter(|&i| s.opacities[i] > min_opacity && s.means[i].iter().all(|v| v.is_finite()))
+        .collect();
+    let axes: Vec<glam::DVec3> = keep.par_iter().map(|&i| disc_normal(s, i)).collect();
+    let dc = dc_only(s);
+    let st = settings(near);
+    // votes (seen, in view) per kept surfel: the cosine between the normal
+    // and the direction to the camera (a grazing view, which cannot tell the
+    // disc's sides apart, weighs little)
+    let mut seen = vec![0.0f64; keep.len()];
+    let mut in_view = vec![0.0f64; keep.len()];
+    for cam in cams {
+        let depth = surfel::render(&dc, cam, &st).opaque_median_depth();
+        let w = cam.width as usize;
+        let votes: Vec<(f64, f64)> = keep
+            .par_iter()
+            .zip(&axes)
+            .map(|(&i, axis)| {
+                let mu = glam::DVec3::from(s.means[i].map(f64::from));
+                let Some((px, d)) = cam.project(mu) else {
+                    return (0.0, 0.0);
+                };
+                if d <= near
+                    || px.x < 0.0
+                    || px.y < 0.0
+                    || px.x >= cam.width as f64
+                    || px.y >= cam.height as f64
+                {
+                    return (0.0, 0.0);
+                }
+                let cos = axis.dot((cam.center() - mu).normalize_or_zero());
+                let z = depth[px.y as usize * w + px.x as usize] as f64;
+                let reach = surfel::CUTOFF * s.scales[i][0].abs().max(s.scales[i][1].abs()) as f64;
+                let visible = z <= 0.0 || z >= d - reach;
+                (if visible { cos } else { 0.0 }, cos)
+            })
+            .collect();
+        for (k, (a, b)) in votes.into_iter().enumerate() {
+            seen[k] += a;
+            in_view[k] += b;
+        }
+    }
+    let nc = (s.sh_degree + 1) * (s.sh_degree + 1);
+    let mut out = LevelPoints::default();
+    for (k, &i) in keep.iter().enumerate() {
+        let vote = if seen[k] != 0.0 { seen[k] } else { in_view[k] };
+        let n = if vote < 0.0 { -axes[k] } else { axes[k] };
+        out.positions.push(s.means[i]);
+        out.normals.push([n.x as f32, n.y as f32, n.z as f32]);
+        out.colors
+            .push(s.sh[i * nc].map(|v| (sh_to_rgb(v).clamp(0.0, 1.0) * 255.0).round() as u8));
+        out.level.push(0.0);
+        out.camera.push(u32::MAX);
+    }
+    out
+}
