@@ -57,8 +57,8 @@ fn ok(o: &std::process::Output) {
 ///
 /// Why not tighter: the same fusion of the exact sphere mesh from these
 /// cameras gives 0.10 voxel RMS (0.08 at 384²), the floor of the TSDF
-/// itself; surfels measure 0.14 (ratio 0) and 0.15 (ratio 1) voxel RMS,
-/// max 0.7 and 1.1 (0.11 RMS at 384²). The excess comes from the
+/// itself; surfels measure 0.136 (ratio 0) and 0.143 (ratio 1) voxel RMS,
+/// max 1.07 and 1.39 (0.11 RMS at 384²; the output is deterministic). The excess comes from the
 /// silhouettes: a disc seen edge-on is hit by rays far from its centre
 /// (its low-pass term keeps α up while the ray meets its plane far
 /// behind), so 2DGS's kernel gives those pixels depths far behind the

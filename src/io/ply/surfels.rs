@@ -310,7 +310,7 @@ mod tests {
         let e = check_finite("m.ply", &s).unwrap_err().to_string();
         assert!(e.contains("surfel 2 has scale_1 = NaN"), "{e}");
         let mut s = sample(1, false);
-        s.sh_rest[(1 * 3 + 2) * 3] = f32::INFINITY;
+        s.sh_rest[(3 + 2) * 3] = f32::INFINITY; // surfel 1 (K = 3), k = 2, c = 0
         let e = check_finite("m.ply", &s).unwrap_err().to_string();
         // k = 2, c = 0 → f_rest_2 of surfel 1
         assert!(e.contains("surfel 1 has f_rest_2 = inf"), "{e}");
