@@ -2,7 +2,8 @@
 //! Gaussians, 2DGS surfels, mesh, points, soup), OBJ, OFF, glTF/GLB, Triangle Splatting
 //! `.pt`, MATLAB `.mat`, NumPy `.npy` / NeuS `.npz`, COLMAP binary and text,
 //! 3DGS `cameras.json`, `transforms.json`, the Tanks-and-Temples `.log`,
-//! `_trans.txt` and crop JSON.
+//! `_trans.txt` and crop JSON, and the Gaussian-splat formats (SuperSplat
+//! compressed PLY, antimatter15 `.splat`, GaussianSplats3D `.ksplat`).
 //!
 //! Seeds are the files in `testdata/` plus small files written by
 //! splatkit's own writers. Each execution takes a seed, applies 1–4 random
@@ -43,7 +44,7 @@ type Reader = fn(&[u8]) -> bool;
 /// binary and text, the `.npy` inside a `.npz`), every input goes through
 /// all of them.
 fn readers() -> Vec<(&'static str, Reader, &'static [&'static str])> {
-    use splatkit::io::{cameras, gltf, image, mat, obj, off, ply, tnt, torch_pt};
+    use splatkit::io::{cameras, gltf, image, mat, obj, off, ply, splat, tnt, torch_pt};
     vec![
         (
             "ply",
@@ -112,6 +113,21 @@ fn readers() -> Vec<(&'static str, Reader, &'static [&'static str])> {
             &[".log", "_trans.txt"],
         ),
         ("png-mask", |b| image::parse_mask("f", b).is_ok(), &[".png"]),
+        (
+            "compressed-ply",
+            |b| splat::compressed_ply::read("f", b).is_ok(),
+            &[".compressed.ply"],
+        ),
+        (
+            "splat",
+            |b| splat::dot_splat::read("f", b).is_ok(),
+            &[".splat"],
+        ),
+        (
+            "ksplat",
+            |b| splat::ksplat::read("f", b).is_ok(),
+            &[".ksplat"],
+        ),
     ]
 }
 

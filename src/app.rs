@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::ops::{
-    bake_texture, bind_gaussians, chamfer, clean, decimate, demo, export_off, info, poisson,
-    prune_triangles, refine, render, splat2points, train, tsdf_fuse,
+    bake_texture, bind_gaussians, chamfer, clean, convert, decimate, demo, export_off, info,
+    poisson, prune_triangles, refine, render, splat2points, train, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -42,6 +42,8 @@ pub enum Command {
     Decimate(decimate::DecimateArgs),
     /// Mesh clean-up: duplicates, degenerate faces, non-manifold edges, small components.
     Clean(clean::CleanArgs),
+    /// Convert Gaussian splats between formats (3DGS PLY, compressed PLY, .splat), reporting the loss.
+    Convert(convert::ConvertArgs),
     /// A 3DGS scene to oriented points on its density level set (SuGaR), for `poisson`.
     Splat2points(splat2points::Splat2PointsArgs),
     /// Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images.
@@ -72,6 +74,7 @@ pub fn splatkit_main() -> ! {
         Command::Decimate(a) => decimate::run(a),
         Command::Clean(a) => clean::run(a),
         Command::Render(a) => render::run(a),
+        Command::Convert(a) => convert::run(a),
         Command::TsdfFuse(a) => tsdf_fuse::run(a),
         Command::Splat2points(a) => splat2points::run(a),
         Command::BindGaussians(a) => bind_gaussians::run(a),
@@ -160,6 +163,13 @@ single_command!(
     tsdf_fuse::TsdfFuseArgs,
     tsdf_fuse::run,
     "Fuse depth maps (rendered from a scene, or files) into a coloured mesh: 2DGS / Open3D TSDF."
+);
+single_command!(
+    convert_main,
+    "convert",
+    convert::ConvertArgs,
+    convert::run,
+    "Convert Gaussian splats between formats (3DGS PLY, compressed PLY, .splat), reporting the loss."
 );
 single_command!(
     splat2points_main,

@@ -814,5 +814,7 @@ mod inputs;
 mod messages;
 #[path = "hostile/reads.rs"]
 mod reads;
+#[path = "hostile/splats.rs"]
+mod splats;
 #[path = "hostile/transaction.rs"]
 mod transaction;

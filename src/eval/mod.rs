@@ -6,4 +6,5 @@
 pub mod chamfer;
 pub mod cull;
 pub mod dtu;
+pub mod splat_error;
 pub mod tnt;

@@ -9,7 +9,9 @@
 //! - PLY: by its header: 3DGS properties → Gaussians, the same with two
 //!   scales (`scale_0`, `scale_1`, no `scale_2`) → 2DGS surfels, faces carrying
 //!   `opacity` and `sigma` → triangle soup, faces → mesh, vertices only →
-//!   point cloud;
+//!   point cloud; SuperSplat compressed PLY (`packed_position`) → Gaussians;
+//! - `.splat` (antimatter15) and `.ksplat` (GaussianSplats3D), by extension:
+//!   they have no magic bytes → Gaussians;
 //! - `.pt` (Triangle Splatting checkpoint) → triangle soup;
 //! - OBJ, OFF, glTF/GLB → mesh;
 //! - `.npz` / `.json` are camera files, not scenes (see `io::cameras`).
@@ -23,7 +25,7 @@ use std::path::{Path, PathBuf};
 use crate::io::detect::{FileFormat, PlyKind};
 use crate::io::ply::{Format, Header};
 use crate::io::source::shown;
-use crate::io::{Input, gltf, obj, off, ply, read_input, torch_pt, write_output};
+use crate::io::{Input, gltf, obj, off, ply, read_input, splat, torch_pt, write_output};
 use crate::model::{
     BoundGaussians, Gaussians, Mesh, PointCloud, Scene, SceneKind, Surfels, TriangleSoup,
 };
@@ -55,6 +57,7 @@ impl Opened {
         let name = self.name();
         Ok(match self.format {
             FileFormat::TorchPt => SceneKind::TriangleSoup,
+            FileFormat::Splat | FileFormat::Ksplat => SceneKind::Gaussians,
             FileFormat::Obj | FileFormat::Off | FileFormat::Glb | FileFormat::Gltf => {
                 SceneKind::Mesh
             }
@@ -92,7 +95,14 @@ impl Opened {
             (SceneKind::TriangleSoup, _) => {
                 Scene::TriangleSoup(ply::soup::parse_soup(name, bytes)?)
             }
+            (SceneKind::Gaussians, FileFormat::Splat) => {
+                Scene::Gaussians(splat::dot_splat::read(name, bytes)?)
+            }
+            (SceneKind::Gaussians, FileFormat::Ksplat) => {
+                Scene::Gaussians(splat::ksplat::read(name, bytes)?)
+            }
             (SceneKind::Gaussians, _) => {
+                // a 3DGS or a SuperSplat compressed PLY
                 Scene::Gaussians(ply::gaussians::parse_gaussians(name, bytes)?)
             }
             (SceneKind::Surfels, _) => Scene::Surfels(ply::surfels::parse_surfels(name, bytes)?),
@@ -161,7 +171,8 @@ pub fn open(path: &Path) -> Result<Opened> {
     let format = FileFormat::detect(path, &input).ok_or_else(|| {
         Error::format(
             &input.name,
-            "unknown file format (expected PLY, OBJ, OFF, glTF/GLB or a .pt checkpoint)",
+            "unknown file format (expected PLY, OBJ, OFF, glTF/GLB, a .pt checkpoint, a \
+             .splat or a .ksplat)",
         )
     })?;
     let ply_kind = if format == FileFormat::Ply {

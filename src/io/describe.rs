@@ -181,6 +181,7 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         _ => match opened.decode()? {
             Scene::Mesh(m) => mesh_info(&mut info, &m),
             Scene::TriangleSoup(s) => soup_info(&mut info, &s),
+            Scene::Gaussians(g) => gaussians_info(&mut info, &g),
             other => {
                 return Err(Error::format(
                     opened.name(),
@@ -194,6 +195,13 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         },
     }
     Ok(info)
+}
+
+fn gaussians_info(info: &mut FileInfo, g: &crate::model::Gaussians) {
+    info.kind = "gaussians".into();
+    info.gaussians = Some(g.len());
+    info.sh_degree = Some(g.sh_degree);
+    info.bbox = bounds(&g.means).map(|(a, b)| [a, b]);
 }
 
 fn soup_info(info: &mut FileInfo, s: &TriangleSoup) {
@@ -309,7 +317,13 @@ fn describe_ply(opened: &any::Opened, info: &mut FileInfo) -> Result<()> {
                 });
             }
         }
-        PlyKind::CompressedGaussians => info.gaussians = count("vertex"),
+        PlyKind::CompressedGaussians => {
+            let Scene::Gaussians(g) = opened.decode()? else {
+                unreachable!("a compressed PLY decodes to Gaussians")
+            };
+            gaussians_info(info, &g);
+            info.kind = kind.name().into();
+        }
         PlyKind::TriangleSoup => {
             let Scene::TriangleSoup(s) = opened.decode()? else {
                 unreachable!("a soup PLY decodes to a soup")

@@ -18,6 +18,10 @@ pub enum FileFormat {
     Npz,
     /// A JSON file (cameras.json / transforms.json).
     Json,
+    /// antimatter15 `.splat` Gaussians (no header: told by extension).
+    Splat,
+    /// mkkellogg GaussianSplats3D `.ksplat` Gaussians (told by extension).
+    Ksplat,
 }
 
 impl FileFormat {
@@ -32,6 +36,8 @@ impl FileFormat {
             FileFormat::TorchPt => "pt",
             FileFormat::Npz => "npz",
             FileFormat::Json => "json",
+            FileFormat::Splat => "splat",
+            FileFormat::Ksplat => "ksplat",
         }
     }
 
@@ -47,6 +53,8 @@ impl FileFormat {
             "pt" | "pth" => FileFormat::TorchPt,
             "npz" => FileFormat::Npz,
             "json" => FileFormat::Json,
+            "splat" => FileFormat::Splat,
+            "ksplat" => FileFormat::Ksplat,
             _ => return None,
         })
     }
@@ -87,11 +95,22 @@ impl FileFormat {
 
     /// Content first, then extension. Zip archives are told apart by
     /// extension (`.npz` vs `.pt`), defaulting to a torch checkpoint.
+    ///
+    /// Binary formats without magic bytes (`.splat`, `.ksplat`) are taken from the
+    /// extension before the text sniffers run, so a record that happens to
+    /// look like an OBJ statement is not misread; a PLY or glTF magic still
+    /// wins.
     pub fn detect(path: &Path, bytes: &[u8]) -> Option<FileFormat> {
+        let by_ext = Self::from_extension(path);
+        let strong = bytes.starts_with(b"ply\n")
+            || bytes.starts_with(b"ply\r\n")
+            || bytes.starts_with(b"glTF");
+        if matches!(by_ext, Some(FileFormat::Splat | FileFormat::Ksplat)) && !strong {
+            return by_ext;
+        }
         if let Some(f) = Self::sniff(bytes) {
             return Some(f);
         }
-        let by_ext = Self::from_extension(path);
         if bytes.starts_with(b"PK\x03\x04") {
             return Some(match by_ext {
                 Some(FileFormat::Npz) => FileFormat::Npz,

@@ -18,6 +18,7 @@ pub mod obj;
 pub mod off;
 pub mod ply;
 pub mod source;
+pub mod splat;
 pub mod tnt;
 pub mod torch_pt;
 pub mod transaction;

@@ -6,6 +6,7 @@ pub mod bake_texture;
 pub mod bind_gaussians;
 pub mod chamfer;
 pub mod clean;
+pub mod convert;
 pub mod decimate;
 pub mod demo;
 pub mod export_off;

@@ -59,13 +59,6 @@ fn file_names(degree: usize, normals: bool) -> Vec<String> {
 /// Works out SH degree and normals from the vertex declaration.
 fn schema(name: &str, def: &ElementDef) -> Result<(usize, bool)> {
     let has = |n: &str| def.index_of(n).is_some();
-    if has("packed_position") {
-        return Err(Error::format(
-            name,
-            "this is a SuperSplat compressed PLY (packed_position, packed_rotation, …): \
-             decompress it to a standard 3DGS PLY first (e.g. SuperSplat's export)",
-        ));
-    }
     let required = [
         "x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity", "scale_0", "scale_1", "scale_2",
         "rot_0", "rot_1", "rot_2", "rot_3",
@@ -150,6 +143,9 @@ fn vertex_def<'h>(name: &str, header: &'h Header) -> Result<&'h ElementDef> {
 /// the error says which properties are missing or malformed.
 pub fn check_layout(name: &str, bytes: &[u8]) -> Result<()> {
     let header = Header::parse(name, bytes)?;
+    if is_compressed(&header) {
+        return Ok(());
+    }
     schema(name, vertex_def(name, &header)?).map(|_| ())
 }
 
@@ -198,9 +194,19 @@ pub fn check_finite(name: &str, g: &Gaussians) -> Result<()> {
     Ok(())
 }
 
-/// Parses a 3DGS PLY from bytes; `name` is used in errors.
+/// A SuperSplat compressed PLY (`packed_position` on the vertex element).
+fn is_compressed(h: &Header) -> bool {
+    h.element("vertex")
+        .is_some_and(|v| v.index_of("packed_position").is_some())
+}
+
+/// Parses a 3DGS PLY from bytes; `name` is used in errors. A SuperSplat
+/// compressed PLY is decoded by [`crate::io::splat::compressed_ply::read`].
 pub fn parse_gaussians(name: &str, bytes: &[u8]) -> Result<Gaussians> {
     let reader = PlyReader::new(name, bytes)?;
+    if is_compressed(&reader.header) {
+        return crate::io::splat::compressed_ply::read(name, bytes);
+    }
     let def = vertex_def(name, &reader.header)?;
     let vi = reader
         .header

@@ -1,0 +1,3 @@
+fn main() {
+    splatkit::app::convert_main()
+}
