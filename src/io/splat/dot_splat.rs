@@ -44,12 +44,12 @@ pub const CAPACITY: Capacity = Capacity {
 /// A `.splat` has no header: only its length (a multiple of 32) can be
 /// checked.
 pub fn sniff(bytes: &[u8]) -> bool {
-    bytes.len() % RECORD == 0
+    bytes.len().is_multiple_of(RECORD)
 }
 
 /// Parses a `.splat` (`name` for errors). SH degree 0, no normals.
 pub fn read(name: &str, bytes: &[u8]) -> Result<Gaussians> {
-    if bytes.len() % RECORD != 0 {
+    if !bytes.len().is_multiple_of(RECORD) {
         return Err(Error::format(
             name,
             format!(
