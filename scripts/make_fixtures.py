@@ -27,9 +27,9 @@ What is written, and checked by tests/fixtures.rs:
              point cloud; a GLB written by trimesh
   colmap/    a COLMAP text model written by pycolmap (write_text)
   gaussians/ a 3DGS PLY written with plyfile as graphdeco's save_ply does
-  splats/    a small 3DGS PLY and its compressed PLY (splat-transform),
+  splats/scene300/ a small 3DGS PLY and its compressed PLY (splat-transform),
              .splat (antimatter15 convert.py) and KSPLAT (GaussianSplats3D),
-             with splat-transform's decoding in splats/expected.json
+             with splat-transform's decoding in splats/scene300/expected.json
              (`make_fixtures.py --only splats` writes just these; needs
              node/npm, see splat_files)
 
@@ -631,7 +631,7 @@ def pt_files(out, readme):
     return f"PyTorch {ver}"
 
 
-# --- Gaussian-splat formats (splats/): run alone with `--only splats` ----------
+# --- Gaussian-splat formats (splats/scene300/): run alone with `--only splats` ----------
 #
 # Needs node/npm (installs @playcanvas/splat-transform and
 # @mkkellogg/gaussian-splats-3d + three into a temp folder), numpy and plyfile,
@@ -685,10 +685,10 @@ def read_ply_vertex(path):
 
 
 def splat_files(out, readme):
-    """testdata/splats/: a small 3DGS PLY (numpy + plyfile) and what the
+    """testdata/splats/scene300/: a small 3DGS PLY (numpy + plyfile) and what the
     splat tools make of it: compressed PLY (splat-transform), .splat
     (antimatter15 convert.py), KSPLAT levels 1 and 2 (GaussianSplats3D);
-    splats/expected.json holds splat-transform's decoding of each (every
+    splats/scene300/expected.json holds splat-transform's decoding of each (every
     5th Gaussian, all attributes) for tests/splat_fixtures.rs."""
     import subprocess
     import tempfile
@@ -696,7 +696,7 @@ def splat_files(out, readme):
     import plyfile
     from importlib.metadata import version
 
-    folder = os.path.join(out, "splats")
+    folder = os.path.join(out, "splats", "scene300")
     os.makedirs(folder, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix="splatfx-")
     subprocess.run(["npm", "install", "--silent", "--prefix", tmp, SPLAT_TRANSFORM, GS3D, THREE],
@@ -772,18 +772,18 @@ def splat_files(out, readme):
             "columns": cols,
             "rows": {str(i): [float(np.float32(v[c][i])) for c in cols] for i in keep},
         }
-        readme.append((f"splats/{f}", tool, {
+        readme.append((f"splats/scene300/{f}", tool, {
             "source.compressed.ply": "SuperSplat compressed PLY of source.ply (Morton order, SH 3 as bytes)",
             "source.splat": "antimatter15 .splat of source.ply (sorted by size x opacity, SH dropped)",
             "source.level1.ksplat": "KSPLAT level 1 (half floats, bucketed positions), SH degree 2",
             "source.level2.ksplat": "KSPLAT level 2 (8-bit SH), SH degree 2",
         }[f]))
-    readme.insert(len(readme) - len(files), ("splats/source.ply", f"plyfile.PlyData.write (plyfile {version('plyfile')})",
+    readme.insert(len(readme) - len(files), ("splats/scene300/source.ply", f"plyfile.PlyData.write (plyfile {version('plyfile')})",
                                              "3DGS PLY, 300 Gaussians in 4 clusters, SH degree 3 (the input of the files below)"))
     with open(os.path.join(folder, "expected.json"), "w") as fh:
         json.dump(exp, fh, separators=(",", ":"))
         fh.write("\n")
-    readme.append(("splats/expected.json", f"json, values decoded by splat-transform {st_ver}",
+    readme.append(("splats/scene300/expected.json", f"json, values decoded by splat-transform {st_ver}",
                    "every 5th Gaussian of each file above as splat-transform decodes it (for tests/splat_fixtures.rs)"))
     return f"splat-transform {st_ver}, GaussianSplats3D {gs_ver}"
 
@@ -791,7 +791,7 @@ def splat_files(out, readme):
 def splat_readme_lines(out, readme):
     """Replaces the splats/ lines of an existing README.md (for `--only splats`)."""
     path = os.path.join(out, "README.md")
-    lines = [l for l in open(path).read().splitlines() if not l.startswith("- `splats/")]
+    lines = [l for l in open(path).read().splitlines() if not l.startswith("- `splats/scene300/")]
     for path_, tool, what in readme:
         lines.append(f"- `{path_}` — `scripts/make_fixtures.py` — {tool} — {what}")
     with open(os.path.join(out, "README.md"), "w") as f:

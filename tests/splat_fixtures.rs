@@ -1,10 +1,11 @@
-//! Gaussian-splat files written by the tools users have (testdata/splats/,
+//! Gaussian-splat files written by the tools users have
+//! (testdata/splats/scene300/,
 //! written by `scripts/make_fixtures.py --only splats`; see
 //! testdata/README.md): a SuperSplat compressed PLY from splat-transform, a
 //! `.splat` from antimatter15's convert.py and KSPLATs (levels 1 and 2) from
 //! GaussianSplats3D, all made from `source.ply`. splatkit's readers are
 //! compared with splat-transform's decoding of the same files
-//! (testdata/splats/expected.json, every 5th Gaussian) and with the source.
+//! (testdata/splats/scene300/expected.json, every 5th Gaussian) and with the source.
 
 use std::path::{Path, PathBuf};
 
@@ -15,7 +16,7 @@ use splatkit::model::Gaussians;
 
 fn path(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("testdata/splats")
+        .join("testdata/splats/scene300")
         .join(rel)
 }
 
