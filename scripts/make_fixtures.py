@@ -630,6 +630,197 @@ def pt_files(out, readme):
         readme.append((f"pt/{f}", tool, what, "scripts/make_pt_fixtures.py"))
     return f"PyTorch {ver}"
 
+SPLAT_NPM = ["@playcanvas/splat-transform@3.7.0", "@adobe/spz@0.2.3"]
+
+# Node side of splat_files: the official SPZ library (nianticlabs/spz compiled to
+# WebAssembly, npm @adobe/spz) writes SPZ v4 and v3 from the same arrays and
+# decodes them; splat-transform (the CLI users run) writes SOG and SPZ from the
+# PLY and decodes both back to PLY.
+SPLAT_NODE = r"""
+import fs from 'node:fs';
+import createModule from '@adobe/spz';
+const dir = process.argv[2];
+const inp = JSON.parse(fs.readFileSync(dir + '/cloud.json', 'utf8'));
+const spz = await createModule();
+const f32 = a => new Float32Array(a);
+const cloud = {
+  numPoints: inp.n, shDegree: inp.sh_degree, antialiased: false, extensions: [],
+  positions: f32(inp.positions), scales: f32(inp.scales), rotations: f32(inp.rotations_xyzw),
+  alphas: f32(inp.alphas), colors: f32(inp.colors), sh: f32(inp.sh),
+};
+const out = { latest: spz.LATEST_SPZ_HEADER_VERSION };
+for (const version of [4, 3]) {
+  const opts = { version, from: spz.CoordinateSystem.RDF, sh1Bits: 5, shRestBits: 4 };
+  const bytes = spz.saveSpzToBuffer(cloud, opts);
+  fs.writeFileSync(`${dir}/adobe_v${version}.spz`, bytes);
+  const back = spz.loadSpzFromBuffer(bytes, { to: spz.CoordinateSystem.RDF });
+  out[`v${version}`] = {
+    positions: Array.from(back.positions), scales: Array.from(back.scales),
+    rotations_xyzw: Array.from(back.rotations), alphas: Array.from(back.alphas),
+    colors: Array.from(back.colors), sh: Array.from(back.sh),
+  };
+}
+fs.writeFileSync(dir + '/adobe_decoded.json', JSON.stringify(out));
+"""
+
+
+def read_ply_f32(path):
+    """A binary little-endian PLY whose vertex properties are all float, as a dict of columns."""
+    with open(path, "rb") as f:
+        data = f.read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    names, n = [], 0
+    for line in data[:end].decode().splitlines():
+        t = line.split()
+        if t[:2] == ["element", "vertex"]:
+            n = int(t[2])
+        elif t[:1] == ["property"]:
+            assert t[1] == "float", line
+            names.append(t[2])
+    arr = np.frombuffer(data[end:end + 4 * n * len(names)], dtype="<f4").reshape(n, len(names))
+    return {a: arr[:, j].copy() for j, a in enumerate(names)}
+
+
+def write_ply_f32(path, cols):
+    n = len(next(iter(cols.values())))
+    head = ["ply", "format binary_little_endian 1.0", f"element vertex {n}"]
+    head += [f"property float {a}" for a in cols] + ["end_header"]
+    table = np.stack([np.asarray(v, dtype=np.float32) for v in cols.values()], axis=1)
+    with open(path, "wb") as f:
+        f.write(("\n".join(head) + "\n").encode())
+        f.write(table.astype("<f4").tobytes())
+
+
+def splat_files(out, readme):
+    """testdata/splats/: SPZ and SOG written by the official SPZ library and by
+    splat-transform from one numpy-written PLY, plus splats/expected.json with
+    the values those tools decode. Needs node and npm (packages go to a temp
+    folder). Run alone with `python3 scripts/make_fixtures.py --splats`."""
+    import shutil
+    import subprocess
+    import tempfile
+
+    folder = os.path.join(out, "splats")
+    os.makedirs(folder, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix="splat-fixtures-")
+    subprocess.run(["npm", "install", "--silent", "--prefix", tmp] + SPLAT_NPM, check=True)
+    vers = {}
+    for pkg in ["@playcanvas/splat-transform", "@adobe/spz"]:
+        with open(os.path.join(tmp, "node_modules", pkg, "package.json")) as f:
+            vers[pkg] = json.load(f)["version"]
+
+    rng = np.random.default_rng(25)
+    n, k = 128, 15
+    xyz = rng.uniform(-3, 3, size=(n, 3)).astype(np.float32)
+    f_dc = rng.uniform(-1.5, 1.5, size=(n, 3)).astype(np.float32)
+    f_rest = rng.uniform(-0.6, 0.6, size=(n, k, 3)).astype(np.float32)  # [N, coeff, channel]
+    opacity = rng.uniform(-4, 4, size=n).astype(np.float32)
+    scale = rng.uniform(-7, -1, size=(n, 3)).astype(np.float32)
+    rot = rng.normal(size=(n, 4)).astype(np.float32)  # w x y z, unnormalised
+    # Gaussian 0: a known off-axis pose for the axis test: at (1.5, 2.25, -3),
+    # rotated 0.6 rad about (1, 2, 3)/sqrt(14).
+    xyz[0] = [1.5, 2.25, -3.0]
+    s = np.sin(0.3) / np.sqrt(14.0)
+    rot[0] = [np.cos(0.3), s, 2 * s, 3 * s]
+    cols = {"x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2]}
+    cols.update({f"f_dc_{c}": f_dc[:, c] for c in range(3)})
+    rest_cm = f_rest.transpose(0, 2, 1).reshape(n, -1)  # PLY: channel-major f_rest
+    cols.update({f"f_rest_{j}": rest_cm[:, j] for j in range(3 * k)})
+    cols["opacity"] = opacity
+    cols.update({f"scale_{j}": scale[:, j] for j in range(3)})
+    cols.update({f"rot_{j}": rot[:, j] for j in range(4)})
+    src = os.path.join(folder, "source.ply")
+    write_ply_f32(src, cols)
+
+    with open(os.path.join(tmp, "cloud.json"), "w") as f:
+        json.dump({
+            "n": n, "sh_degree": 3,
+            "positions": [float(v) for v in xyz.flatten()],
+            "scales": [float(v) for v in scale.flatten()],
+            "rotations_xyzw": [float(v) for v in rot[:, [1, 2, 3, 0]].flatten()],
+            "alphas": [float(v) for v in opacity],
+            "colors": [float(v) for v in f_dc.flatten()],
+            "sh": [float(v) for v in f_rest.flatten()],
+        }, f)
+    with open(os.path.join(tmp, "run.mjs"), "w") as f:
+        f.write(SPLAT_NODE)
+    subprocess.run(["node", os.path.join(tmp, "run.mjs"), tmp], check=True, cwd=tmp)
+    with open(os.path.join(tmp, "adobe_decoded.json")) as f:
+        adobe = json.load(f)
+
+    cli = os.path.join(tmp, "node_modules", "@playcanvas", "splat-transform", "bin", "cli.mjs")
+    def st(*args):
+        subprocess.run(["node", cli, "-q", "-w", "-g", "cpu", *args], check=True, cwd=tmp)
+    st(src, os.path.join(tmp, "st.sog"))
+    st(src, os.path.join(tmp, "st.spz"))
+    st(os.path.join(tmp, "st.sog"), os.path.join(tmp, "st_sog_decoded.ply"))
+    st(os.path.join(tmp, "st.spz"), os.path.join(tmp, "st_spz_decoded.ply"))
+    for name in ["adobe_v4.spz", "adobe_v3.spz", "st.sog", "st.spz"]:
+        shutil.copy(os.path.join(tmp, name), os.path.join(folder, name.replace("st.", "splat_transform.")))
+
+    pick = list(range(0, n, 8))  # 16 Gaussians stored in full
+
+    def from_cloud(d):
+        p = np.array(d["positions"]).reshape(n, 3)
+        q = np.array(d["rotations_xyzw"]).reshape(n, 4)[:, [3, 0, 1, 2]]
+        sh = np.array(d["sh"]).reshape(n, k * 3)  # coefficient-major, channel innermost
+        return {
+            "means": p, "log_scales": np.array(d["scales"]).reshape(n, 3),
+            "rotations_wxyz": q, "opacity_logits": np.array(d["alphas"]),
+            "sh_dc": np.array(d["colors"]).reshape(n, 3), "sh_rest_coefficient_major": sh,
+        }
+
+    def from_ply(c):
+        m = len(c["x"])
+        rest = np.stack([c[f"f_rest_{j}"] for j in range(3 * k)], axis=1)
+        rest = rest.reshape(m, 3, k).transpose(0, 2, 1).reshape(m, 3 * k)
+        return {
+            "means": np.stack([c["x"], c["y"], c["z"]], axis=1),
+            "log_scales": np.stack([c[f"scale_{j}"] for j in range(3)], axis=1),
+            "rotations_wxyz": np.stack([c[f"rot_{j}"] for j in range(4)], axis=1),
+            "opacity_logits": c["opacity"],
+            "sh_dc": np.stack([c[f"f_dc_{j}"] for j in range(3)], axis=1),
+            "sh_rest_coefficient_major": rest,
+        }
+
+    def entry(d, writer, what, axes):
+        e = {"writer": writer, "what": what, "n": n, "sh_degree": 3, "axes": axes,
+             "rows": pick, "decoded_by": writer}
+        for key, v in d.items():
+            v = np.asarray(v, dtype=np.float64)
+            e[key] = [([float(x) for x in v[i]] if v.ndim > 1 else float(v[i])) for i in pick]
+        return e
+
+    adobe_ver = f"@adobe/spz {vers['@adobe/spz']} (nianticlabs/spz compiled to WebAssembly)"
+    st_ver = f"@playcanvas/splat-transform {vers['@playcanvas/splat-transform']}"
+    exp = {"source.ply": {"writer": f"numpy {np.__version__}", "n": n, "sh_degree": 3}}
+    exp["adobe_v4.spz"] = entry(from_cloud(adobe["v4"]), adobe_ver,
+                                "saveSpzToBuffer version 4 from RDF; decoded with loadSpzFromBuffer to RDF", "RDF")
+    exp["adobe_v3.spz"] = entry(from_cloud(adobe["v3"]), adobe_ver,
+                                "saveSpzToBuffer version 3 (gzip) from RDF; decoded to RDF", "RDF")
+    exp["splat_transform.spz"] = entry(from_ply(read_ply_f32(os.path.join(tmp, "st_spz_decoded.ply"))), st_ver,
+                                       "splat-transform source.ply x.spz; decoded by splat-transform x.spz y.ply "
+                                       "(no axis conversion either way: stored axes are the PLY's)", "stored as RDF")
+    exp["splat_transform.sog"] = entry(from_ply(read_ply_f32(os.path.join(tmp, "st_sog_decoded.ply"))), st_ver,
+                                       "splat-transform source.ply x.sog (bundled, version 2, Morton order); "
+                                       "decoded by splat-transform x.sog y.ply (texel order)", "RDF")
+    exp["latest_spz_version_of_official_library"] = adobe["latest"]
+    with open(os.path.join(folder, "expected.json"), "w") as f:
+        json.dump(exp, f, separators=(",", ":"))
+        f.write("\n")
+    shutil.rmtree(tmp)
+    readme += [
+        ("splats/source.ply", f"numpy {np.__version__} (hand-written PLY header)",
+         "3DGS PLY, 128 Gaussians, SH degree 3, float32; Gaussian 0 at (1.5, 2.25, -3) rotated 0.6 rad about (1,2,3)"),
+        ("splats/adobe_v4.spz", adobe_ver, "SPZ version 4 (zstd streams) of source.ply, packed from RDF (stored RUB)"),
+        ("splats/adobe_v3.spz", adobe_ver, "SPZ version 3 (gzip) of source.ply, packed from RDF (stored RUB)"),
+        ("splats/splat_transform.spz", st_ver, "SPZ of source.ply as splat-transform writes it (PLY axes, no conversion)"),
+        ("splats/splat_transform.sog", st_ver, "bundled SOG version 2 of source.ply"),
+        ("splats/expected.json", f"json, values decoded by {adobe_ver} and {st_ver}",
+         "for every 8th Gaussian of each file, the values its writing tool decodes"),
+    ]
+    return f"{st_ver}, {adobe_ver}"
+
 
 # --- Gaussian-splat formats (splats/scene300/): run alone with `--only splats` ----------
 #
@@ -684,7 +875,7 @@ def read_ply_vertex(path):
     return out, [(n, c) for n, c, _ in elements]
 
 
-def splat_files(out, readme):
+def scene300_files(out, readme):
     """testdata/splats/scene300/: a small 3DGS PLY (numpy + plyfile) and what the
     splat tools make of it: compressed PLY (splat-transform), .splat
     (antimatter15 convert.py), KSPLAT levels 1 and 2 (GaussianSplats3D);
@@ -802,10 +993,12 @@ def main(argv):
     if argv[:2] == ["--only", "splats"]:
         out = argv[2] if len(argv) > 2 else os.path.join(ROOT, "testdata")
         readme = []
-        tool = splat_files(out, readme)
+        tool = scene300_files(out, readme)
         splat_readme_lines(out, readme)
-        print(f"wrote {len(readme)} files to {out}/splats with: {tool}")
+        print(f"wrote {len(readme)} files to {out}/splats/scene300 with: {tool}")
         return 0
+    if argv[:1] == ["--splats"]:
+        return splats_only(argv[1:])
     out = argv[0] if argv else os.path.join(ROOT, "testdata")
     for d in ["mat", "npz", "mesh", "colmap", "gaussians", "pt"]:
         os.makedirs(os.path.join(out, d), exist_ok=True)
@@ -819,6 +1012,8 @@ def main(argv):
     tools.append(gaussians_file(out, exp, readme))
     tools.append(pt_files(out, readme))
     tools.append(splat_files(out, readme))
+    tools.append(scene300_files(out, readme))
+    tools.append(scene300_files(out, readme))
     with open(os.path.join(out, "expected.json"), "w") as f:
         json.dump({"tools": tools, "files": exp, "arrays": ARRAYS}, f, separators=(",", ":"))
         f.write("\n")
@@ -826,6 +1021,24 @@ def main(argv):
                    "the values tests/fixtures.rs must find in every file above, computed by the writing tools"))
     write_readme(out, readme, tools)
     print(f"wrote {len(readme)} files to {out} with: {', '.join(tools)}")
+    return 0
+
+
+def splats_only(argv):
+    """Regenerates testdata/splats/ alone and replaces its lines in testdata/README.md."""
+    out = argv[0] if argv else os.path.join(ROOT, "testdata")
+    rows_ = []
+    tool = splat_files(out, rows_)
+    path = os.path.join(out, "README.md")
+    with open(path) as f:
+        lines = [ln for ln in f.read().splitlines()
+                 if not ln.startswith("- `splats/") or ln.startswith("- `splats/scene300/")]
+    while lines and not lines[-1]:
+        lines.pop()
+    lines += [f"- `{p}` — `scripts/make_fixtures.py --splats` — {t} — {w}" for p, t, w in rows_]
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print(f"wrote {len(rows_)} files to {out}/splats with {tool}")
     return 0
 
 

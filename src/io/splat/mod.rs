@@ -25,6 +25,7 @@ use crate::{Error, Result};
 pub mod compressed_ply;
 pub mod dot_splat;
 pub mod ksplat;
+pub mod spz;
 
 /// SH DC coefficient ↔ colour: colour = 0.5 + C0·dc (every format here).
 pub const SH_C0: f64 = 0.282_094_791_773_878_14;
