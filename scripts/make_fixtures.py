@@ -1013,7 +1013,6 @@ def main(argv):
     tools.append(pt_files(out, readme))
     tools.append(splat_files(out, readme))
     tools.append(scene300_files(out, readme))
-    tools.append(scene300_files(out, readme))
     with open(os.path.join(out, "expected.json"), "w") as f:
         json.dump({"tools": tools, "files": exp, "arrays": ARRAYS}, f, separators=(",", ":"))
         f.write("\n")

@@ -42,7 +42,7 @@ pub enum Command {
     Decimate(decimate::DecimateArgs),
     /// Mesh clean-up: duplicates, degenerate faces, non-manifold edges, small components.
     Clean(clean::CleanArgs),
-    /// Convert Gaussian splats between formats (3DGS PLY, compressed PLY, .splat), reporting the loss.
+    /// Convert Gaussian splats between formats (3DGS PLY, compressed PLY, SPZ, .splat), reporting the loss.
     Convert(convert::ConvertArgs),
     /// A 3DGS scene to oriented points on its density level set (SuGaR), for `poisson`.
     Splat2points(splat2points::Splat2PointsArgs),
@@ -169,7 +169,7 @@ single_command!(
     "convert",
     convert::ConvertArgs,
     convert::run,
-    "Convert Gaussian splats between formats (3DGS PLY, compressed PLY, .splat), reporting the loss."
+    "Convert Gaussian splats between formats (3DGS PLY, compressed PLY, SPZ, .splat), reporting the loss."
 );
 single_command!(
     splat2points_main,

@@ -78,7 +78,23 @@ fn round_trips_through_every_format() {
     // component (< 0.2°), SH 8 bits over ±4 (½·8/256 = 0.0157). .splat:
     // f32 position and scale (exact up to exp/ln), 8-bit colour/opacity
     // (½/255 rounded), rotation 1/128 per component (< 1°), SH dropped.
-    let cases: [(&str, u64, [f64; 6]); 2] = [
+    // SPZ: 24-bit fixed-point positions (12 fractional bits: ½/4096),
+    // colour dc·0.15·255 + 127.5 in 8 bits (½·C0/38.25 = 0.0037), opacity
+    // ½/255, log scale (s + 10)·16 (½/16), smallest-three rotation, SH in
+    // 5 bits (band 1) and 4 bits (bands 2–3) of x·128 + 128 (½·16/128).
+    let cases: [(&str, u64, [f64; 6]); 3] = [
+        (
+            "spz",
+            3,
+            [
+                0.5 / 4096.0 + 1e-6,
+                0.0038,
+                0.5 / 255.0 + 1e-6,
+                1.0 / 32.0 + 1e-6,
+                0.5,
+                0.0626,
+            ],
+        ),
         (
             "compressed.ply",
             3,
@@ -259,6 +275,7 @@ fn info_reads_every_format() {
     for (ext, kind, degree) in [
         ("compressed.ply", "gaussians-compressed", 1),
         ("splat", "gaussians", 0),
+        ("spz", "gaussians", 1),
     ] {
         let out = dir.path().join(format!("x.{ext}"));
         ok(&convert(&[s(&input), "-o", s(&out), "--lossy"]));

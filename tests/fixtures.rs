@@ -722,9 +722,28 @@ fn cli_info_json_on_every_fixture() {
     }
 }
 
+/// A file of the Gaussian-splat folders (`splats/`, `splats/scene300/`,
+/// read by tests/splat_fixtures.rs and the SPZ/SOG unit tests) is checked
+/// when its folder's own expected.json names it (or it is that file).
+fn splat_fixture_checked(rel: &str) -> bool {
+    let Some(rest) = rel.strip_prefix("splats/") else {
+        return false;
+    };
+    let (dir, name) = match rest.rsplit_once('/') {
+        Some((d, n)) => (format!("splats/{d}"), n),
+        None => ("splats".to_string(), rest),
+    };
+    if name == "expected.json" {
+        return true;
+    }
+    let exp = String::from_utf8(read(&format!("{dir}/expected.json"))).unwrap_or_default();
+    exp.contains(&format!("\"{name}\""))
+}
+
 /// Every file under testdata/ has its line in testdata/README.md and is
 /// checked here or by tests/torch_pt.rs (an entry of expected.json, of
-/// pt/expected.json, or part of the COLMAP model folder).
+/// pt/expected.json, part of the COLMAP model folder, or named by the
+/// expected.json of its splats/ folder).
 #[test]
 fn every_fixture_is_listed_and_checked() {
     let readme = String::from_utf8(read("README.md")).unwrap();
@@ -756,7 +775,8 @@ fn every_fixture_is_listed_and_checked() {
                 || files.contains_key(&rel)
                 || rel.strip_prefix("pt/").is_some_and(|f| pt.get(f).is_some())
                 || rel.starts_with("colmap/")
-                || rel.starts_with("surfels/");
+                || rel.starts_with("surfels/")
+                || splat_fixture_checked(&rel);
             assert!(checked, "{rel} has no expected values");
             seen += 1;
         }

@@ -10,6 +10,7 @@
 //!   scales (`scale_0`, `scale_1`, no `scale_2`) → 2DGS surfels, faces carrying
 //!   `opacity` and `sigma` → triangle soup, faces → mesh, vertices only →
 //!   point cloud; SuperSplat compressed PLY (`packed_position`) → Gaussians;
+//! - SPZ (by its magic, also gzip-wrapped) → Gaussians;
 //! - `.splat` (antimatter15) and `.ksplat` (GaussianSplats3D), by extension:
 //!   they have no magic bytes → Gaussians;
 //! - `.pt` (Triangle Splatting checkpoint) → triangle soup;
@@ -57,7 +58,7 @@ impl Opened {
         let name = self.name();
         Ok(match self.format {
             FileFormat::TorchPt => SceneKind::TriangleSoup,
-            FileFormat::Splat | FileFormat::Ksplat => SceneKind::Gaussians,
+            FileFormat::Splat | FileFormat::Ksplat | FileFormat::Spz => SceneKind::Gaussians,
             FileFormat::Obj | FileFormat::Off | FileFormat::Glb | FileFormat::Gltf => {
                 SceneKind::Mesh
             }
@@ -100,6 +101,9 @@ impl Opened {
             }
             (SceneKind::Gaussians, FileFormat::Ksplat) => {
                 Scene::Gaussians(splat::ksplat::read(name, bytes)?)
+            }
+            (SceneKind::Gaussians, FileFormat::Spz) => {
+                Scene::Gaussians(splat::spz::read(name, bytes)?)
             }
             (SceneKind::Gaussians, _) => {
                 // a 3DGS or a SuperSplat compressed PLY
@@ -171,8 +175,8 @@ pub fn open(path: &Path) -> Result<Opened> {
     let format = FileFormat::detect(path, &input).ok_or_else(|| {
         Error::format(
             &input.name,
-            "unknown file format (expected PLY, OBJ, OFF, glTF/GLB, a .pt checkpoint, a \
-             .splat or a .ksplat)",
+            "unknown file format (expected PLY, OBJ, OFF, glTF/GLB, a .pt checkpoint, \
+             .spz, .splat or .ksplat)",
         )
     })?;
     let ply_kind = if format == FileFormat::Ply {

@@ -22,6 +22,8 @@ pub enum FileFormat {
     Splat,
     /// mkkellogg GaussianSplats3D `.ksplat` Gaussians (told by extension).
     Ksplat,
+    /// Niantic SPZ Gaussians (magic `NGSP`, or gzip holding it).
+    Spz,
 }
 
 impl FileFormat {
@@ -38,6 +40,7 @@ impl FileFormat {
             FileFormat::Json => "json",
             FileFormat::Splat => "splat",
             FileFormat::Ksplat => "ksplat",
+            FileFormat::Spz => "spz",
         }
     }
 
@@ -55,6 +58,7 @@ impl FileFormat {
             "json" => FileFormat::Json,
             "splat" => FileFormat::Splat,
             "ksplat" => FileFormat::Ksplat,
+            "spz" => FileFormat::Spz,
             _ => return None,
         })
     }
@@ -66,6 +70,9 @@ impl FileFormat {
         }
         if bytes.starts_with(b"glTF") {
             return Some(FileFormat::Glb);
+        }
+        if crate::io::splat::spz::sniff(bytes) {
+            return Some(FileFormat::Spz);
         }
         let text = std::str::from_utf8(&bytes[..bytes.len().min(512)]).unwrap_or("");
         let first = text

@@ -7,6 +7,7 @@
 //! | `compressed-ply` (SuperSplat / PlayCanvas) | `.compressed.ply` | `ply` magic, `packed_position` | yes | yes |
 //! | `splat` (antimatter15) | `.splat` | extension only (no header), size a multiple of 32 | yes | yes |
 //! | `ksplat` (mkkellogg GaussianSplats3D) | `.ksplat` | extension and a header that parses | yes | no |
+//! | `spz` (Niantic) | `.spz` | `NGSP` (v4) or gzip holding `NGSP` (v1–3) | yes | yes (v4) |
 //!
 //! Every reader returns [`Gaussians`] with the 3DGS conventions of
 //! [`crate::model::gaussians`] (raw values: log scales, opacity logits,
@@ -41,13 +42,16 @@ pub enum SplatFormat {
     Splat,
     /// mkkellogg GaussianSplats3D `.ksplat` ([`ksplat`], read only).
     Ksplat,
+    /// Niantic SPZ ([`spz`]; read: versions 1–4, written: version 4).
+    Spz,
 }
 
 impl SplatFormat {
     /// Every format, in the order `--help` lists them.
-    pub const ALL: [SplatFormat; 4] = [
+    pub const ALL: [SplatFormat; 5] = [
         SplatFormat::Ply,
         SplatFormat::CompressedPly,
+        SplatFormat::Spz,
         SplatFormat::Splat,
         SplatFormat::Ksplat,
     ];
@@ -59,6 +63,7 @@ impl SplatFormat {
             SplatFormat::CompressedPly => "compressed-ply",
             SplatFormat::Splat => "splat",
             SplatFormat::Ksplat => "ksplat",
+            SplatFormat::Spz => "spz",
         }
     }
 
@@ -69,6 +74,7 @@ impl SplatFormat {
             SplatFormat::CompressedPly => ".compressed.ply",
             SplatFormat::Splat => ".splat",
             SplatFormat::Ksplat => ".ksplat",
+            SplatFormat::Spz => ".spz",
         }
     }
 
@@ -99,9 +105,13 @@ impl SplatFormat {
         best
     }
 
-    /// From the content alone: a PLY header tells 3DGS from compressed;
-    /// `.splat` has no header and `.ksplat` no magic, so they are `None`.
+    /// From the content alone: a PLY header tells 3DGS from compressed; SPZ
+    /// has its magic ([`spz::sniff`]); `.splat` has no header and `.ksplat`
+    /// no magic, so they are `None`.
     pub fn sniff(bytes: &[u8]) -> Option<SplatFormat> {
+        if spz::sniff(bytes) {
+            return Some(SplatFormat::Spz);
+        }
         if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
             let h = Header::parse("", bytes).ok()?;
             return match PlyKind::of(&h) {
@@ -136,6 +146,7 @@ pub fn read(format: SplatFormat, name: &str, bytes: &[u8], _base: &Path) -> Resu
         SplatFormat::CompressedPly => compressed_ply::read(name, bytes),
         SplatFormat::Splat => dot_splat::read(name, bytes),
         SplatFormat::Ksplat => ksplat::read(name, bytes),
+        SplatFormat::Spz => spz::read(name, bytes),
     }
 }
 
@@ -155,6 +166,14 @@ pub fn write(format: SplatFormat, name: &str, g: &Gaussians, lossy: bool) -> Res
         }
         SplatFormat::CompressedPly => compressed_ply::write(name, g, lossy),
         SplatFormat::Splat => dot_splat::write(name, g, lossy),
+        SplatFormat::Spz => {
+            // spz::write refuses out-of-range values itself; what it drops
+            // (normals, extra properties, extra elements) is refused here
+            if !lossy {
+                check_lossless(name, g, &SPZ_EXTRAS)?;
+            }
+            spz::write(name, g, lossy)
+        }
         SplatFormat::Ksplat => Err(Error::usage(format!(
             "{name}: splatkit reads KSPLAT but does not write it (write .compressed.ply, .splat \
              or .ply)"
@@ -172,6 +191,16 @@ pub fn write_order(format: SplatFormat, g: &Gaussians) -> Vec<usize> {
         _ => (0..g.len()).collect(),
     }
 }
+
+/// What SPZ drops besides the ranges `spz::write` checks: normals, extra
+/// properties and elements (SH up to degree 3 are kept).
+const SPZ_EXTRAS: Capacity = Capacity {
+    format: "SPZ",
+    sh_degree: 3,
+    colour: None,
+    log_scale: None,
+    sh_rest: None,
+};
 
 /// What a format can hold, for [`check_lossless`].
 #[derive(Clone, Copy, Debug)]
