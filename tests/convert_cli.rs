@@ -81,7 +81,8 @@ fn round_trips_through_every_format() {
     // SPZ: 24-bit fixed-point positions (12 fractional bits: ½/4096),
     // colour dc·0.15·255 + 127.5 in 8 bits (½·C0/38.25 = 0.0037), opacity
     // ½/255, log scale (s + 10)·16 (½/16), smallest-three rotation, SH in
-    // 5 bits (band 1) and 4 bits (bands 2–3) of x·128 + 128 (½·16/128).
+    // 5 bits (band 1) and 4 bits (bands 2–3) of x·128 + 128 (½·16/128, plus
+    // the byte's own ½/128).
     let cases: [(&str, u64, [f64; 6]); 3] = [
         (
             "spz",
@@ -92,7 +93,7 @@ fn round_trips_through_every_format() {
                 0.5 / 255.0 + 1e-6,
                 1.0 / 32.0 + 1e-6,
                 0.5,
-                0.0626,
+                0.0625 + 0.5 / 128.0 + 1e-6,
             ],
         ),
         (
