@@ -8,6 +8,11 @@ Usage (from the repository root):
     python3 -m venv /tmp/fxvenv
     /tmp/fxvenv/bin/pip install numpy scipy open3d trimesh pymeshlab pycolmap plyfile torch
     /tmp/fxvenv/bin/python scripts/make_fixtures.py [TESTDATA_DIR]
+    /tmp/fxvenv/bin/python scripts/make_fixtures.py --only-mip [TESTDATA_DIR]
+
+(--only-mip writes only gaussians/mip_splatting.{ply,json}, needing only
+numpy and plyfile, and prints its README lines.)
+    /tmp/fxvenv/bin/python scripts/make_fixtures.py --only-surfels [TESTDATA_DIR]
 
 TESTDATA_DIR defaults to testdata/ at the repository root. Everything is
 deterministic (fixed seeds); re-running rewrites the same bytes except the
@@ -26,7 +31,11 @@ What is written, and checked by tests/fixtures.rs:
              a coloured icosphere with normals and of a coloured oriented
              point cloud; a GLB written by trimesh
   colmap/    a COLMAP text model written by pycolmap (write_text)
-  gaussians/ a 3DGS PLY written with plyfile as graphdeco's save_ply does
+  gaussians/ a 3DGS PLY written with plyfile as graphdeco's save_ply does,
+             and a Mip-Splatting / GOF PLY (with filter_3D) as theirs does
+  surfels/   a 2DGS PLY written as hbb1/2d-gaussian-splatting's save_ply does
+             (two scales), with its own expected.json (--only-surfels
+             writes just this folder and prints its README lines)
   splats/scene300/ a small 3DGS PLY and its compressed PLY (splat-transform),
              .splat (antimatter15 convert.py) and KSPLAT (GaussianSplats3D),
              with splat-transform's decoding in splats/scene300/expected.json
@@ -989,6 +998,237 @@ def splat_readme_lines(out, readme):
         f.write("\n".join(lines) + "\n")
 
 
+def mip_gaussians_file(out, exp, readme):
+    """A PLY as Mip-Splatting's / GOF's GaussianModel.save_ply writes it: the
+    3DGS attribute list (x y z nx ny nz f_dc_0..2 f_rest_0..44 opacity
+    scale_0..2 rot_0..3) then `filter_3D`, all float32, SH degree 3. The
+    expected values (in gaussians/mip_splatting.json, so that this function
+    can run alone) include the scales and opacities their renderer draws,
+    computed here with NumPy float64 by get_scaling_with_3D_filter and
+    get_opacity_with_3D_filter's formulas."""
+    import plyfile
+
+    from importlib.metadata import version
+
+    ver = version("plyfile")
+    rng = np.random.default_rng(25)
+    n = 60
+    xyz = rng.normal(size=(n, 3)).astype(np.float32)
+    normals = np.zeros_like(xyz)
+    f_dc = rng.normal(size=(n, 1, 3)).astype(np.float32)
+    f_rest = (rng.normal(size=(n, 15, 3)) * 0.1).astype(np.float32)
+    opacity = rng.normal(size=(n, 1)).astype(np.float32)
+    scale = (rng.normal(size=(n, 3)) - 4.5).astype(np.float32)
+    rotation = rng.normal(size=(n, 4)).astype(np.float32)
+    # compute_3D_filter: distance / focal * sqrt(0.2), a few 1e-3 here
+    filter_3d = (rng.uniform(2.0, 6.0, size=(n, 1)) / 1000.0 * 0.2 ** 0.5).astype(np.float32)
+    dc_flat = f_dc.transpose(0, 2, 1).reshape(n, -1)
+    rest_flat = f_rest.transpose(0, 2, 1).reshape(n, -1)
+    names = ["x", "y", "z", "nx", "ny", "nz"]
+    names += [f"f_dc_{i}" for i in range(3)] + [f"f_rest_{i}" for i in range(45)]
+    names += ["opacity"] + [f"scale_{i}" for i in range(3)] + [f"rot_{i}" for i in range(4)]
+    names += ["filter_3D"]
+    table = np.concatenate([xyz, normals, dc_flat, rest_flat, opacity, scale, rotation, filter_3d], axis=1)
+    rec = np.empty(n, dtype=[(a, "f4") for a in names])
+    rec[:] = list(map(tuple, table))  # as save_ply fills its structured array
+    path = os.path.join(out, "gaussians", "mip_splatting.ply")
+    plyfile.PlyData([plyfile.PlyElement.describe(rec, "vertex")]).write(path)
+    back = plyfile.PlyData.read(path)["vertex"].data
+    assert all(np.array_equal(back[a], rec[a]) for a in names)
+    # the renderer's values (float64 here)
+    s = np.exp(scale.astype(np.float64))
+    f = filter_3d.astype(np.float64)
+    s2 = s * s + f * f
+    eff_scales = np.sqrt(s2)
+    coef = np.sqrt(np.prod(s * s, axis=1) / np.prod(s2, axis=1))
+    eff_opacity = 1.0 / (1.0 + np.exp(-opacity[:, 0].astype(np.float64))) * coef
+    doc = {
+        "writer": f"plyfile {ver}",
+        "n": n,
+        "sh_degree": 3,
+        "property_order": names,
+        "means": rows(xyz),
+        "opacity_logits": [float(x) for x in opacity.flatten()],
+        "log_scales": rows(scale),
+        "filter_3D": [float(x) for x in filter_3d.flatten()],
+        "effective_scales": rows(eff_scales),
+        "effective_opacities": [float(x) for x in eff_opacity],
+        "note": "effective_* are get_scaling_with_3D_filter / get_opacity_with_3D_filter in float64",
+    }
+    with open(os.path.join(out, "gaussians", "mip_splatting.json"), "w") as fh:
+        json.dump(doc, fh, separators=(",", ":"))
+        fh.write("\n")
+    for f_name, what in [
+        ("gaussians/mip_splatting.ply", "Mip-Splatting / GOF PLY as their save_ply: 60 Gaussians, SH degree 3, "
+                                        "3DGS properties + filter_3D, float32, binary little-endian"),
+        ("gaussians/mip_splatting.json", "its values and the scales/opacities the Mip-Splatting renderer draws "
+                                         "(NumPy float64), for tests/filter3d.rs"),
+    ]:
+        readme.append((f_name, f"plyfile.PlyData.write (plyfile {ver})" if f_name.endswith(".ply")
+                       else f"json, values from NumPy {np.__version__}", what))
+    return f"plyfile {ver}"
+
+
+def mip_filter_reference_file(out, readme):
+    """render/mip_filter_reference.json by scripts/compare/mip_filter_reference.py."""
+    sys.path.insert(0, os.path.join(HERE, "compare"))
+    import mip_filter_reference
+
+    os.makedirs(os.path.join(out, "render"), exist_ok=True)
+    assert mip_filter_reference.main([os.path.join(out, "render", "mip_filter_reference.json")]) == 0
+    readme.append(("render/mip_filter_reference.json",
+                   f"json, values from NumPy {np.__version__} (float32)",
+                   "32×24 RGB and alpha of 14 Gaussians under the 2-D Mip filter (kernel 0.1 and 0.0), "
+                   "from the Mip-Splatting / GOF CUDA rules, for tests/mip_filter.rs",
+                   "scripts/compare/mip_filter_reference.py"))
+
+
+def quat_wxyz_from_z_to(n):
+    """Unit quaternion (w, x, y, z) of the shortest rotation taking +z to the
+    unit vector n."""
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(np.dot(z, n))
+    if c < -1.0 + 1e-12:
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    axis = np.cross(z, n)
+    q = np.array([1.0 + c, axis[0], axis[1], axis[2]])
+    return q / np.linalg.norm(q)
+
+
+def quat_mul(a, b):
+    """Hamilton product of two (w, x, y, z) quaternions."""
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+    ])
+
+
+def build_rotation_np(q):
+    """2DGS utils/general_utils.build_rotation for one (w, x, y, z) quaternion
+    (normalised first), in numpy float64."""
+    r, x, y, z = q / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - r * z), 2 * (x * z + r * y)],
+        [2 * (x * y + r * z), 1 - 2 * (x * x + z * z), 2 * (y * z - r * x)],
+        [2 * (x * z - r * y), 2 * (y * z + r * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+class _SurfelModel:
+    """The attributes 2DGS's GaussianModel.save_ply reads, as numpy arrays of
+    the tensors' shapes: _xyz [N,3], _features_dc [N,1,3], _features_rest
+    [N,15,3], _opacity [N,1], _scaling [N,2] (two scales), _rotation [N,4]."""
+
+    def construct_list_of_attributes(self):
+        # hbb1/2d-gaussian-splatting scene/gaussian_model.py, same order
+        l = ["x", "y", "z", "nx", "ny", "nz"]
+        for i in range(self._features_dc.shape[1] * self._features_dc.shape[2]):
+            l.append("f_dc_{}".format(i))
+        for i in range(self._features_rest.shape[1] * self._features_rest.shape[2]):
+            l.append("f_rest_{}".format(i))
+        l.append("opacity")
+        for i in range(self._scaling.shape[1]):
+            l.append("scale_{}".format(i))
+        for i in range(self._rotation.shape[1]):
+            l.append("rot_{}".format(i))
+        return l
+
+    def save_ply(self, path):
+        # GaussianModel.save_ply with .detach().cpu().numpy() dropped
+        from plyfile import PlyData, PlyElement
+
+        xyz = self._xyz
+        normals = np.zeros_like(xyz)
+        f_dc = self._features_dc.transpose(0, 2, 1).reshape(xyz.shape[0], -1)
+        f_rest = self._features_rest.transpose(0, 2, 1).reshape(xyz.shape[0], -1)
+        opacities = self._opacity
+        scale = self._scaling
+        rotation = self._rotation
+        dtype_full = [(attribute, "f4") for attribute in self.construct_list_of_attributes()]
+        elements = np.empty(xyz.shape[0], dtype=dtype_full)
+        attributes = np.concatenate((xyz, normals, f_dc, f_rest, opacities, scale, rotation), axis=1)
+        elements[:] = list(map(tuple, attributes))
+        el = PlyElement.describe(elements, "vertex")
+        PlyData([el]).write(path)
+
+
+def surfels_file(out, readme):
+    """testdata/surfels/point_cloud.ply, written as 2DGS's save_ply writes it:
+    128 surfels tangent to the unit sphere (Fibonacci centres, disc normal =
+    the radial direction, a random twist about it, quaternions scaled by a
+    random factor as training leaves them unnormalised), SH degree 3, and
+    surfels/expected.json with the values and each disc normal (R[:, 2] of
+    2DGS's build_rotation)."""
+    import plyfile
+
+    from importlib.metadata import version
+
+    ver = version("plyfile")
+    rng = np.random.default_rng(25)
+    n = 128
+    k = np.arange(n) + 0.5
+    phi = np.arccos(1.0 - 2.0 * k / n)
+    theta = np.pi * (1.0 + 5.0 ** 0.5) * k
+    radial = np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], axis=1)
+    rot = []
+    for i in range(n):
+        t = rng.uniform(0.0, 2.0 * np.pi)
+        twist = np.array([np.cos(t / 2), 0.0, 0.0, np.sin(t / 2)])
+        q = quat_mul(quat_wxyz_from_z_to(radial[i]), twist)
+        rot.append(q * rng.uniform(0.5, 2.0))
+    m = _SurfelModel()
+    m._xyz = radial.astype(np.float32)
+    m._features_dc = (rng.normal(size=(n, 1, 3)) * 0.5).astype(np.float32)
+    m._features_rest = (rng.normal(size=(n, 15, 3)) * 0.05).astype(np.float32)
+    m._opacity = rng.uniform(2.0, 4.0, size=(n, 1)).astype(np.float32)
+    m._scaling = np.log(np.stack([rng.uniform(0.2, 0.26, n), rng.uniform(0.16, 0.2, n)], axis=1)).astype(np.float32)
+    m._rotation = np.array(rot).astype(np.float32)
+    folder = os.path.join(out, "surfels")
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, "point_cloud.ply")
+    m.save_ply(path)
+    names = m.construct_list_of_attributes()
+    back = plyfile.PlyData.read(path)["vertex"]
+    assert [p.name for p in back.properties] == names
+    assert np.array_equal(back.data["scale_1"], m._scaling[:, 1])
+    disc_normals = [build_rotation_np(q.astype(np.float64))[:, 2] for q in m._rotation]
+
+    def f32rows(a):
+        # the shortest decimal that reads back as the same f32 (exact, smaller file)
+        return [[float(str(np.float32(x))) for x in np.atleast_1d(r)] for r in np.asarray(a, dtype=np.float32)]
+
+    exp = {
+        "writer": f"plyfile {ver}",
+        "file": "point_cloud.ply",
+        "n": n,
+        "sh_degree": 3,
+        "means": f32rows(m._xyz),
+        "sh_dc": f32rows(m._features_dc.reshape(n, 3)),
+        "sh_rest_coefficient_major": f32rows(m._features_rest.reshape(n, 45)),
+        "opacity_logits": [r[0] for r in f32rows(m._opacity)],
+        "log_scales": f32rows(m._scaling),
+        "rotations_wxyz": f32rows(m._rotation),
+        "disc_normals": [[round(float(x), 9) for x in r] for r in disc_normals],
+        "sphere": {"center": [0.0, 0.0, 0.0], "radius": 1.0},
+        "property_order": names,
+        "tol": EXACT,
+        "normal_tol": {"abs": 1e-6, "note": "R[:, 2] from the f32 quaternion in float64, 9 decimals; splatkit normalises in f32"},
+    }
+    with open(os.path.join(folder, "expected.json"), "w") as f:
+        json.dump(exp, f, separators=(",", ":"))
+        f.write("\n")
+    readme.append(("surfels/point_cloud.ply", f"plyfile.PlyData.write (plyfile {ver})",
+                   "2DGS PLY as hbb1/2d-gaussian-splatting save_ply: 128 surfels tangent to the unit sphere, "
+                   "two scales, SH degree 3, float32, binary little-endian"))
+    readme.append(("surfels/expected.json", "json, values from NumPy " + np.__version__,
+                   "the values tests/fixtures.rs must find in surfels/point_cloud.ply, and each disc normal"))
+    return f"plyfile {ver}"
+
+
 def main(argv):
     if argv[:2] == ["--only", "splats"]:
         out = argv[2] if len(argv) > 2 else os.path.join(ROOT, "testdata")
@@ -999,6 +1239,23 @@ def main(argv):
         return 0
     if argv[:1] == ["--splats"]:
         return splats_only(argv[1:])
+    if argv and argv[0] == "--only-mip":
+        # only the Mip-Splatting / GOF PLY and its JSON (needs numpy, plyfile)
+        out = argv[1] if len(argv) > 1 else os.path.join(ROOT, "testdata")
+        os.makedirs(os.path.join(out, "gaussians"), exist_ok=True)
+        readme = []
+        mip_gaussians_file(out, {}, readme)
+        for entry in readme:
+            print(f"- `{entry[0]}` — `scripts/make_fixtures.py` — {entry[1]} — {entry[2]}")
+        return 0
+    if argv[:1] == ["--only-surfels"]:
+        # just testdata/surfels/ (its README lines are printed to paste)
+        out = argv[1] if len(argv) > 1 else os.path.join(ROOT, "testdata")
+        readme = []
+        surfels_file(out, readme)
+        for path, tool, what in readme:
+            print(f"- `{path}` — `scripts/make_fixtures.py` — {tool} — {what}")
+        return 0
     out = argv[0] if argv else os.path.join(ROOT, "testdata")
     for d in ["mat", "npz", "mesh", "colmap", "gaussians", "pt"]:
         os.makedirs(os.path.join(out, d), exist_ok=True)
@@ -1010,7 +1267,10 @@ def main(argv):
     tools.append(pymeshlab_files(out, exp, readme))
     tools.append(colmap_files(out, exp, readme))
     tools.append(gaussians_file(out, exp, readme))
+    mip_gaussians_file(out, exp, readme)
+    surfels_file(out, readme)
     tools.append(pt_files(out, readme))
+    mip_filter_reference_file(out, readme)
     tools.append(splat_files(out, readme))
     tools.append(scene300_files(out, readme))
     with open(os.path.join(out, "expected.json"), "w") as f:
