@@ -3,7 +3,8 @@
 //! `.pt`, MATLAB `.mat`, NumPy `.npy` / NeuS `.npz`, COLMAP binary and text,
 //! 3DGS `cameras.json`, `transforms.json`, the Tanks-and-Temples `.log`,
 //! `_trans.txt` and crop JSON, and the Gaussian-splat formats (SuperSplat
-//! compressed PLY, antimatter15 `.splat`, GaussianSplats3D `.ksplat`).
+//! compressed PLY, antimatter15 `.splat`, GaussianSplats3D `.ksplat`,
+//! Niantic SPZ, PlayCanvas SOG bundled and `meta.json`).
 //!
 //! Seeds are the files in `testdata/` plus small files written by
 //! splatkit's own writers. Each execution takes a seed, applies 1–4 random
@@ -128,6 +129,20 @@ fn readers() -> Vec<(&'static str, Reader, &'static [&'static str])> {
             |b| splat::ksplat::read("f", b).is_ok(),
             &[".ksplat"],
         ),
+        (
+            "spz",
+            |b| splatkit::io::splat::spz::read("f", b).is_ok(),
+            &[".spz"],
+        ),
+        (
+            "sog",
+            |b| {
+                splatkit::io::splat::sog::read("f", b, Path::new("/nonexistent")).is_ok()
+                    | splatkit::io::splat::sog::sniff_zip(b)
+                    | splatkit::io::splat::sog::sniff_meta(b)
+            },
+            &[".sog", "sog_meta.json"],
+        ),
     ]
 }
 
@@ -148,6 +163,19 @@ fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {
 /// Small valid files from splatkit's writers, into `dir`.
 fn write_generated_seeds(dir: &Path) {
     std::fs::create_dir_all(dir).expect("seed folder");
+    // SPZ and SOG of the 3DGS fixture (SH degree 3), and a loose SOG meta.json
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata");
+    let ply = std::fs::read(root.join("gaussians/point_cloud.ply")).expect("fixture");
+    let g = splatkit::io::ply::gaussians::parse_gaussians("seed", &ply).expect("fixture");
+    let spz = splatkit::io::splat::spz::write("seed", &g, true).expect("write seed");
+    std::fs::write(dir.join("gen.spz"), spz).expect("write seed");
+    let sog = splatkit::io::splat::sog::write("seed", &g, true).expect("write seed");
+    let mut z = zip::ZipArchive::new(std::io::Cursor::new(&sog[..])).expect("our zip");
+    let mut meta = Vec::new();
+    std::io::Read::read_to_end(&mut z.by_name("meta.json").expect("meta"), &mut meta)
+        .expect("meta");
+    std::fs::write(dir.join("gen.sog"), &sog).expect("write seed");
+    std::fs::write(dir.join("gen_sog_meta.json"), meta).expect("write seed");
     let mesh = Mesh::new(
         vec![
             [0.0, 0.0, 0.0],

@@ -58,7 +58,9 @@ impl Opened {
         let name = self.name();
         Ok(match self.format {
             FileFormat::TorchPt => SceneKind::TriangleSoup,
-            FileFormat::Splat | FileFormat::Ksplat | FileFormat::Spz => SceneKind::Gaussians,
+            FileFormat::Splat | FileFormat::Ksplat | FileFormat::Spz | FileFormat::Sog => {
+                SceneKind::Gaussians
+            }
             FileFormat::Obj | FileFormat::Off | FileFormat::Glb | FileFormat::Gltf => {
                 SceneKind::Mesh
             }
@@ -104,6 +106,9 @@ impl Opened {
             }
             (SceneKind::Gaussians, FileFormat::Spz) => {
                 Scene::Gaussians(splat::spz::read(name, bytes)?)
+            }
+            (SceneKind::Gaussians, FileFormat::Sog) => {
+                Scene::Gaussians(splat::sog::read(name, bytes, &self.base)?)
             }
             (SceneKind::Gaussians, _) => {
                 // a 3DGS or a SuperSplat compressed PLY

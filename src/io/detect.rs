@@ -24,6 +24,9 @@ pub enum FileFormat {
     Ksplat,
     /// Niantic SPZ Gaussians (magic `NGSP`, or gzip holding it).
     Spz,
+    /// PlayCanvas SOG Gaussians: a zip holding `meta.json` and WebP images,
+    /// or the `meta.json` itself (images beside it).
+    Sog,
 }
 
 impl FileFormat {
@@ -41,6 +44,7 @@ impl FileFormat {
             FileFormat::Splat => "splat",
             FileFormat::Ksplat => "ksplat",
             FileFormat::Spz => "spz",
+            FileFormat::Sog => "sog",
         }
     }
 
@@ -59,6 +63,7 @@ impl FileFormat {
             "splat" => FileFormat::Splat,
             "ksplat" => FileFormat::Ksplat,
             "spz" => FileFormat::Spz,
+            "sog" => FileFormat::Sog,
             _ => return None,
         })
     }
@@ -73,6 +78,9 @@ impl FileFormat {
         }
         if crate::io::splat::spz::sniff(bytes) {
             return Some(FileFormat::Spz);
+        }
+        if crate::io::splat::sog::sniff_zip(bytes) || crate::io::splat::sog::sniff_meta(bytes) {
+            return Some(FileFormat::Sog);
         }
         let text = std::str::from_utf8(&bytes[..bytes.len().min(512)]).unwrap_or("");
         let first = text

@@ -8,6 +8,7 @@
 //! | `splat` (antimatter15) | `.splat` | extension only (no header), size a multiple of 32 | yes | yes |
 //! | `ksplat` (mkkellogg GaussianSplats3D) | `.ksplat` | extension and a header that parses | yes | no |
 //! | `spz` (Niantic) | `.spz` | `NGSP` (v4) or gzip holding `NGSP` (v1–3) | yes | yes (v4) |
+//! | `sog` (PlayCanvas) | `.sog`, `meta.json` | zip holding `meta.json`; JSON with `means` | yes | yes (bundled v2) |
 //!
 //! Every reader returns [`Gaussians`] with the 3DGS conventions of
 //! [`crate::model::gaussians`] (raw values: log scales, opacity logits,
@@ -26,6 +27,7 @@ use crate::{Error, Result};
 pub mod compressed_ply;
 pub mod dot_splat;
 pub mod ksplat;
+pub mod sog;
 pub mod spz;
 
 /// SH DC coefficient ↔ colour: colour = 0.5 + C0·dc (every format here).
@@ -44,14 +46,18 @@ pub enum SplatFormat {
     Ksplat,
     /// Niantic SPZ ([`spz`]; read: versions 1–4, written: version 4).
     Spz,
+    /// PlayCanvas SOG ([`sog`]; read: bundled `.sog` or `meta.json`,
+    /// versions 1–2; written: bundled version 2).
+    Sog,
 }
 
 impl SplatFormat {
     /// Every format, in the order `--help` lists them.
-    pub const ALL: [SplatFormat; 5] = [
+    pub const ALL: [SplatFormat; 6] = [
         SplatFormat::Ply,
         SplatFormat::CompressedPly,
         SplatFormat::Spz,
+        SplatFormat::Sog,
         SplatFormat::Splat,
         SplatFormat::Ksplat,
     ];
@@ -64,6 +70,7 @@ impl SplatFormat {
             SplatFormat::Splat => "splat",
             SplatFormat::Ksplat => "ksplat",
             SplatFormat::Spz => "spz",
+            SplatFormat::Sog => "sog",
         }
     }
 
@@ -75,6 +82,7 @@ impl SplatFormat {
             SplatFormat::Splat => ".splat",
             SplatFormat::Ksplat => ".ksplat",
             SplatFormat::Spz => ".spz",
+            SplatFormat::Sog => ".sog",
         }
     }
 
@@ -112,6 +120,9 @@ impl SplatFormat {
         if spz::sniff(bytes) {
             return Some(SplatFormat::Spz);
         }
+        if sog::sniff_zip(bytes) || sog::sniff_meta(bytes) {
+            return Some(SplatFormat::Sog);
+        }
         if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
             let h = Header::parse("", bytes).ok()?;
             return match PlyKind::of(&h) {
@@ -138,15 +149,16 @@ impl SplatFormat {
 }
 
 /// Reads Gaussians in `format` from `bytes` (`name` for errors; `base` is
-/// the folder side files would be resolved in: none of these formats has
-/// one yet).
-pub fn read(format: SplatFormat, name: &str, bytes: &[u8], _base: &Path) -> Result<Gaussians> {
+/// the folder side files are resolved in: the images of an unbundled SOG
+/// `meta.json`).
+pub fn read(format: SplatFormat, name: &str, bytes: &[u8], base: &Path) -> Result<Gaussians> {
     match format {
         SplatFormat::Ply => crate::io::ply::gaussians::parse_gaussians(name, bytes),
         SplatFormat::CompressedPly => compressed_ply::read(name, bytes),
         SplatFormat::Splat => dot_splat::read(name, bytes),
         SplatFormat::Ksplat => ksplat::read(name, bytes),
         SplatFormat::Spz => spz::read(name, bytes),
+        SplatFormat::Sog => sog::read(name, bytes, base),
     }
 }
 
@@ -174,6 +186,9 @@ pub fn write(format: SplatFormat, name: &str, g: &Gaussians, lossy: bool) -> Res
             }
             spz::write(name, g, lossy)
         }
+        // sog::write refuses what SOG drops or clamps itself (normals,
+        // extra properties, SH above degree 3, non-finite values)
+        SplatFormat::Sog => sog::write(name, g, lossy),
         SplatFormat::Ksplat => Err(Error::usage(format!(
             "{name}: splatkit reads KSPLAT but does not write it (write .compressed.ply, .splat \
              or .ply)"
@@ -183,11 +198,12 @@ pub fn write(format: SplatFormat, name: &str, g: &Gaussians, lossy: bool) -> Res
 
 /// The order in which `format`'s writer stores the Gaussians of `g`:
 /// entry `j` is the input index of the Gaussian written `j`-th (compressed
-/// PLY sorts into Morton order, as splat-transform does; the others keep
-/// the input order).
+/// PLY and SOG sort into Morton order, as splat-transform does; the others
+/// keep the input order).
 pub fn write_order(format: SplatFormat, g: &Gaussians) -> Vec<usize> {
     match format {
         SplatFormat::CompressedPly => morton_order(&g.means),
+        SplatFormat::Sog => sog::write_order(&g.means),
         _ => (0..g.len()).collect(),
     }
 }
