@@ -357,8 +357,8 @@ fn load_splats(scene: &Path) -> anyhow::Result<(Splats, bool)> {
             .with_context(|| format!("reading {name}"))?
         {
             Scene::Gaussians(g) => {
-                let (g, filtered) = crate::model::filter3d::baked_for_rendering(g)
-                    .map_err(|e| e.in_file(&name))?;
+                let (g, filtered) =
+                    crate::model::filter3d::baked_for_rendering(g).map_err(|e| e.in_file(&name))?;
                 (Splats::Gaussians(g.to_raster()), filtered)
             }
             Scene::Surfels(s) => {
