@@ -313,7 +313,7 @@ pub fn run(args: Splat2PointsArgs) -> anyhow::Result<()> {
     }
     let pc = to_point_cloud(points, args.provenance);
     save_points(&args.output, &pc, Format::BinaryLittleEndian)?;
-    report(&args, method, &scene, &g, filter_2d, &views, n, t0)
+    report(&args, (method, filter_2d), &scene, &g, &views, n, t0)
 }
 
 /// The splats points are made from, activated.
@@ -545,10 +545,9 @@ fn no_points_error(
 /// from `views`, seconds since `t0`.
 fn report(
     args: &Splat2PointsArgs,
-    method: Method,
+    (method, filter_2d): (Method, Filter2d),
     scene: &Path,
     g: &Splats,
-    filter_2d: Filter2d,
     views: &Views,
     n: usize,
     t0: std::time::Instant,
