@@ -306,33 +306,3 @@ fn our_bundle_has_splat_transforms_layout() {
     let g = read("ours.sog", &ours, Path::new(".")).unwrap();
     assert_eq!(g.len(), src.len());
 }
-
-/// A measurement, not a check (run with `--ignored --nocapture`): write and
-/// read 1M Gaussians (SH degree 3) as SPZ and SOG and print the times.
-#[test]
-#[ignore]
-fn timing_1m() {
-    let g = random_gaussians(1_000_000, 3, 50.0, 99);
-    for fmt in ["spz", "sog"] {
-        let t = std::time::Instant::now();
-        let bytes = if fmt == "spz" {
-            crate::io::splat::spz::write("t.spz", &g, false).unwrap()
-        } else {
-            write("t.sog", &g, false).unwrap()
-        };
-        let tw = t.elapsed().as_secs_f64();
-        let t = std::time::Instant::now();
-        let h = if fmt == "spz" {
-            crate::io::splat::spz::read("t.spz", &bytes).unwrap()
-        } else {
-            read("t.sog", &bytes, Path::new(".")).unwrap()
-        };
-        let tr = t.elapsed().as_secs_f64();
-        assert_eq!(h.len(), g.len());
-        eprintln!(
-            "{fmt}: 1M Gaussians SH 3: {} bytes, write {tw:.2} s, read {tr:.2} s ({} threads)",
-            bytes.len(),
-            rayon::current_num_threads()
-        );
-    }
-}
