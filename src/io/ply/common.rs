@@ -197,8 +197,12 @@ pub fn sh_degree_from_rest<'a>(
     element: &str,
     names: impl Iterator<Item = &'a str>,
 ) -> Result<usize> {
+    // only the canonical spelling names an SH coefficient: `f_rest_036` or
+    // `f_rest_+3` parse as numbers but are not the names the readers look
+    // up, so they count as other properties (found by fuzzing)
     let mut rest: Vec<usize> = names
-        .filter_map(|n| n.strip_prefix("f_rest_").and_then(|s| s.parse().ok()))
+        .filter_map(|n| n.strip_prefix("f_rest_"))
+        .filter_map(|s| s.parse::<usize>().ok().filter(|r| r.to_string() == s))
         .collect();
     rest.sort_unstable();
     let m = rest.len();

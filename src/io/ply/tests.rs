@@ -521,3 +521,21 @@ fn corrupted_inputs_never_panic() {
         "expected most corrupted inputs to be rejected"
     );
 }
+
+/// A non-canonical `f_rest` name (`f_rest_036` for `f_rest_36`, the
+/// mutation the reader fuzzer found on 2026-11-26, which panicked) is an
+/// error naming the count, not a crash: it is another property, and 44
+/// coefficients match no SH degree.
+#[test]
+fn non_canonical_f_rest_name_is_an_error() {
+    let g = random_gaussians(1, 3, 3, true);
+    let mut bytes = Vec::new();
+    write_gaussians(&mut bytes, &g, Format::BinaryLittleEndian).unwrap();
+    let text_end = bytes.windows(10).position(|w| w == b"end_header").unwrap();
+    let head = String::from_utf8(bytes[..text_end].to_vec()).unwrap();
+    let head = head.replace("property float f_rest_36\n", "property float f_rest_036\n");
+    let mut mutated = head.into_bytes();
+    mutated.extend_from_slice(&bytes[text_end..]);
+    let e = parse_gaussians("m.ply", &mutated).unwrap_err().to_string();
+    assert!(e.contains("44 f_rest_* properties"), "{e}");
+}
