@@ -48,6 +48,19 @@ pub fn decode(what: &str, bytes: &[u8], min_texels: u64) -> Result<Rgba> {
             format!("image is {width}x{height}, fewer than the {min_texels} texels it must hold"),
         ));
     }
+    // A SOG writer makes each image just large enough for what it holds
+    // (whole rows); a much larger one is refused before its pixels are
+    // allocated (a few-KB lossless WebP may declare 16383x16383: found by
+    // fuzzing, where the decode's 1 GiB buffers hit the address-space limit).
+    if min_texels > 0 && texels > min_texels.saturating_mul(2).saturating_add(1 << 16) {
+        return Err(Error::format(
+            what,
+            format!(
+                "image is {width}x{height}, far more than the {min_texels} texels it holds \
+                 (a SOG image is at most a few rows larger)"
+            ),
+        ));
+    }
     budget::check(
         &format!("{what}: a {width}x{height} image"),
         texels.saturating_mul(8),
