@@ -391,3 +391,29 @@ fn binding_commands_refuse_filtered_gaussians() {
     common::fails(&res, 1, &["bound_filtered.ply", FILTER_3D]);
     assert!(!out.exists());
 }
+
+/// `convert` refuses to drop `filter_3D` into a format that cannot hold it
+/// (exit 1, no output), and `--bake-filter-3d` writes the baked values:
+/// read back, they equal `bake_filter_3d` of the input bit for bit (a PLY
+/// keeps f32 exactly) and carry no `filter_3D` column.
+#[test]
+fn convert_bakes_the_filter_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = testdata("gaussians/mip_splatting.ply");
+    let spz = dir.path().join("x.spz");
+    let o = run("convert", &[s(&input), "-o", s(&spz)], None);
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert!(!spz.exists());
+    let out = dir.path().join("baked.ply");
+    succeeds(&run(
+        "convert",
+        &[s(&input), "-o", s(&out), "--bake-filter-3d"],
+        None,
+    ));
+    let got = load_gaussians(&out, "test").unwrap();
+    let want = bake_filter_3d(&load_gaussians(&input, "test").unwrap()).unwrap();
+    assert!(!has_filter_3d(&got));
+    assert_eq!(got.log_scales, want.log_scales);
+    assert_eq!(got.opacity_logits, want.opacity_logits);
+    assert_eq!(got.means, want.means);
+}

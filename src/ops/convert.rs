@@ -53,6 +53,12 @@ pub struct ConvertArgs {
     /// non-finite values); the report says how much was lost.
     #[arg(long)]
     pub lossy: bool,
+    /// Bake a Mip-Splatting / GOF `filter_3D` property into plain 3DGS
+    /// scales and opacities (`get_scaling_with_3D_filter`,
+    /// `get_opacity_with_3D_filter`) and drop the column; the errors are
+    /// then measured against the baked values.
+    #[arg(long)]
+    pub bake_filter_3d: bool,
     #[command(flatten)]
     pub common: Common,
 }
@@ -144,7 +150,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         (None, false) => SplatFormat::from_path(&args.output).ok_or_else(|| {
             usage(format!(
                 "{}: cannot tell the output format from the extension (.ply, \
-                 .compressed.ply, .spz, .splat); give --format",
+                 .compressed.ply, .spz, .sog, .splat); give --format",
                 args.output.display()
             ))
         })?,
@@ -154,6 +160,12 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     }
     let (g, input_format) =
         load(&args).with_context(|| format!("reading {}", shown(&args.input, false)))?;
+    let g = if args.bake_filter_3d {
+        crate::model::filter3d::bake_filter_3d(&g)
+            .map_err(|e| e.in_file(shown(&args.input, false)))?
+    } else {
+        g
+    };
     let (bytes, report) = encode(&g, input_format, format, &out_name, args.lossy)?;
     write_output(&args.output, |w| {
         w.write_all(&bytes).map_err(crate::io::source::werr)
