@@ -35,6 +35,18 @@ pub fn sigmoid(x: f32) -> f32 {
     1.0 / (1.0 + (-x).exp())
 }
 
+/// A stored (w, x, y, z) quaternion as a normalised glam quaternion
+/// (identity if it is zero or not finite); shared by Gaussians and surfels.
+pub fn unit_quat([w, x, y, z]: [f32; 4]) -> glam::Quat {
+    let q = glam::Quat::from_xyzw(x, y, z, w);
+    let n = q.length();
+    if n > 0.0 && n.is_finite() {
+        q / n
+    } else {
+        glam::Quat::IDENTITY
+    }
+}
+
 /// Inverse of [`sigmoid`] for p in (0, 1).
 pub fn logit(p: f32) -> f32 {
     (p / (1.0 - p)).ln()
@@ -69,14 +81,7 @@ impl Gaussians {
     /// Normalised rotation of Gaussian `i` as a glam quaternion (identity if
     /// the stored quaternion is zero or not finite).
     pub fn quat(&self, i: usize) -> glam::Quat {
-        let [w, x, y, z] = self.rotations[i];
-        let q = glam::Quat::from_xyzw(x, y, z, w);
-        let n = q.length();
-        if n > 0.0 && n.is_finite() {
-            q / n
-        } else {
-            glam::Quat::IDENTITY
-        }
+        unit_quat(self.rotations[i])
     }
 
     /// SH coefficients of Gaussian `i`, coefficient-major `[k] = [r, g, b]`

@@ -68,14 +68,7 @@ impl Surfels {
     /// Normalised rotation of surfel `i` as a glam quaternion (identity if
     /// the stored quaternion is zero or not finite).
     pub fn quat(&self, i: usize) -> glam::Quat {
-        let [w, x, y, z] = self.rotations[i];
-        let q = glam::Quat::from_xyzw(x, y, z, w);
-        let n = q.length();
-        if n > 0.0 && n.is_finite() {
-            q / n
-        } else {
-            glam::Quat::IDENTITY
-        }
+        super::gaussians::unit_quat(self.rotations[i])
     }
 
     /// Unit normal of surfel `i`'s disc: the rotation's third column (2DGS's
