@@ -14,16 +14,22 @@
 //! a panic is a crash (the input is saved to `OUT/crash-READER-N.bin`). Run
 //! it under an address-space limit (`scripts/fuzz.sh` does) so that an
 //! allocation driven by a declared size aborts the run; the input being
-//! read is always in `OUT/current-READER.bin` for that case.
+//! read is always in `OUT/current-READER.bin` for that case. With
+//! `--big-alloc BYTES`, an input that makes one allocation of that size or
+//! more is saved as `OUT/big-READER-N.bin` whatever memory the machine has
+//! (`--replay` with it prints the allocation's backtrace).
 //!
 //! ```text
 //! cargo run --release --example fuzz_readers -- --seconds 60 --out fuzz-out [--reader ply] [--seed 1]
 //! cargo run --release --example fuzz_readers -- --replay fuzz-out/crash-gltf-0.bin --reader gltf
 //! ```
 //! `--seconds` is CPU time per reader. One JSON line per reader on stdout:
-//! executions, Ok / Err counts, crashes, CPU and wall seconds.
+//! executions, Ok / Err counts, crashes, large allocations, CPU and wall seconds.
 
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 #[path = "support/mutate.rs"]
@@ -38,6 +44,60 @@ use splatkit::model::rng;
 use splatkit::model::{Mesh, PointCloud, Scene};
 
 type Reader = fn(&[u8]) -> bool;
+
+/// The system allocator, watched: a single request of [`BIG_ALLOC`] bytes or
+/// more is remembered (its size in [`LARGEST`]) and, in `--replay`, printed
+/// with a backtrace, so that `--big-alloc BYTES` names the inputs that drive
+/// large allocations even on a machine that has the memory for them.
+struct Watched;
+
+static BIG_ALLOC: AtomicUsize = AtomicUsize::new(usize::MAX);
+static LARGEST: AtomicUsize = AtomicUsize::new(0);
+static BACKTRACE: AtomicBool = AtomicBool::new(false);
+
+thread_local! {
+    static IN_HOOK: Cell<bool> = const { Cell::new(false) };
+}
+
+fn watch(size: usize) {
+    if size < BIG_ALLOC.load(Ordering::Relaxed) {
+        return;
+    }
+    LARGEST.fetch_max(size, Ordering::Relaxed);
+    if BACKTRACE.load(Ordering::Relaxed) && !IN_HOOK.with(|h| h.replace(true)) {
+        eprintln!(
+            "allocation of {size} bytes:\n{}",
+            std::backtrace::Backtrace::force_capture()
+        );
+        IN_HOOK.with(|h| h.set(false));
+    }
+}
+
+// SAFETY: every call is passed on unchanged to `System`.
+unsafe impl GlobalAlloc for Watched {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        watch(l.size());
+        // SAFETY: same contract as the caller\'s.
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn alloc_zeroed(&self, l: Layout) -> *mut u8 {
+        watch(l.size());
+        // SAFETY: same contract as the caller\'s.
+        unsafe { System.alloc_zeroed(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        // SAFETY: same contract as the caller\'s.
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        watch(new);
+        // SAFETY: same contract as the caller\'s.
+        unsafe { System.realloc(p, l, new) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Watched = Watched;
 
 /// The readers under test, one entry per reader the issue names: its name,
 /// the reader (true = Ok) and which seed files (by path suffix) feed it.
@@ -288,9 +348,13 @@ fn main() {
     let out = PathBuf::from(opt("--out").unwrap_or_else(|| "fuzz-out".into()));
     let only = opt("--reader");
     let seed: u64 = opt("--seed").and_then(|s| s.parse().ok()).unwrap_or(1);
+    if let Some(b) = opt("--big-alloc").and_then(|s| s.parse().ok()) {
+        BIG_ALLOC.store(b, Ordering::Relaxed);
+    }
     // `--replay FILE --reader NAME`: run one input with panics shown.
     if let (Some(file), Some(name)) = (opt("--replay"), only.as_deref()) {
         let bytes = std::fs::read(&file).expect("read the replayed file");
+        BACKTRACE.store(true, Ordering::Relaxed);
         let (_, read, _) = readers()
             .into_iter()
             .find(|(n, _, _)| *n == name)
@@ -331,7 +395,7 @@ fn main() {
         }
         let mut r = rng::stream(seed, name.len() as u64 * 7919 + seeds.len() as u64);
         let current = out.join(format!("current-{name}.bin"));
-        let (mut execs, mut ok, mut crashes) = (0u64, 0u64, 0u64);
+        let (mut execs, mut ok, mut crashes, mut bigs) = (0u64, 0u64, 0u64, 0u64);
         let t0 = Instant::now();
         let cpu0 = cpu_seconds();
         let mut last_report = Instant::now();
@@ -350,7 +414,19 @@ fn main() {
             // Kept on disk so a run killed by the address-space limit leaves
             // the input that did it.
             std::fs::write(&current, &input).expect("write current input");
-            match std::panic::catch_unwind(|| read(&input)) {
+            LARGEST.store(0, Ordering::Relaxed);
+            let result = std::panic::catch_unwind(|| read(&input));
+            let largest = LARGEST.load(Ordering::Relaxed);
+            if largest > 0 {
+                let f = out.join(format!("big-{name}-{bigs}.bin"));
+                std::fs::write(&f, &input).expect("write big");
+                eprintln!(
+                    "{name}: an allocation of {largest} bytes, input {}",
+                    f.display()
+                );
+                bigs += 1;
+            }
+            match result {
                 Ok(true) => ok += 1,
                 Ok(false) => {}
                 Err(_) => {
@@ -363,7 +439,7 @@ fn main() {
         }
         let _ = std::fs::remove_file(&current);
         println!(
-            "{{\"reader\":\"{name}\",\"seeds\":{},\"executions\":{execs},\"ok\":{ok},\"err\":{},\"crashes\":{crashes},\"cpu_seconds\":{:.1},\"wall_seconds\":{:.1}}}",
+            "{{\"reader\":\"{name}\",\"seeds\":{},\"executions\":{execs},\"ok\":{ok},\"err\":{},\"crashes\":{crashes},\"big_allocs\":{bigs},\"cpu_seconds\":{:.1},\"wall_seconds\":{:.1}}}",
             seeds.len(),
             execs - ok - crashes,
             cpu_seconds() - cpu0,

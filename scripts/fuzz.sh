@@ -10,7 +10,10 @@
 # The budget is CPU time, so runs sharing the machine still give each reader its share.
 # OUT holds the input under test, rewritten every execution: keep it on a tmpfs (a disk
 # makes the run about ten times slower).
-# Prints one JSON line per reader (executions, Ok / Err, crashes, CPU and wall seconds);
+# BIG_ALLOC (bytes, default 268435456): inputs that make one allocation this large are
+# saved as OUT/big-READER-N.bin even where the machine has the memory (an address-space
+# abort depends on the core count); `--replay FILE --reader R --big-alloc N` shows where.
+# Prints one JSON line per reader (executions, Ok / Err, crashes, big allocations, CPU and wall seconds);
 # crashing inputs are saved as OUT/crash-READER-N.bin and replayed with
 #   target/release/examples/fuzz_readers --replay FILE --reader READER
 set -euo pipefail
@@ -20,6 +23,6 @@ default_out=fuzz-out
 secs="${1:-60}"; out="${2:-$default_out}"; seed="${3:-1}"; readers="${4:-}"
 cargo build --release -q --example fuzz_readers
 ulimit -v $((2 * 1024 * 1024))
-args=(--seconds "$secs" --out "$out" --seed "$seed")
+args=(--seconds "$secs" --out "$out" --seed "$seed" --big-alloc "${BIG_ALLOC:-268435456}")
 [ -n "$readers" ] && args+=(--reader "$readers")
 exec target/release/examples/fuzz_readers "${args[@]}"

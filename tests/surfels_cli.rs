@@ -49,28 +49,29 @@ fn ok(o: &std::process::Output) {
 }
 
 /// 6,000 surfels (σ = 0.04 and 0.032) tangent to the unit sphere, rendered
-/// by `tsdf-fuse` from 20 cameras all around (192², f = 206) with 2DGS's
+/// by `tsdf-fuse` from 80 cameras all around (192², f = 206) with 2DGS's
 /// surfel depth at its default ratio 0 (the mean depth) and at ratio 1
 /// (the median), fused with voxel 0.02 and 2DGS's cluster filter
-/// (`--keep-clusters 1`): the mesh's vertices lie on the sphere within 0.2
-/// voxel RMS and 1.5 voxel at most.
+/// (`--keep-clusters 1`): the mesh's vertices lie on the sphere within 0.1
+/// voxel RMS and 0.5 voxel at most (the target is 0.1 voxel).
 ///
-/// Why not tighter: the same fusion of the exact sphere mesh from these
-/// cameras gives 0.10 voxel RMS (0.08 at 384²), the floor of the TSDF
-/// itself; surfels measure 0.136 (ratio 0) and 0.143 (ratio 1) voxel RMS,
-/// max 1.07 and 1.39 (0.11 RMS at 384²; the output is deterministic). The excess comes from the
-/// silhouettes: a disc seen edge-on is hit by rays far from its centre
-/// (its low-pass term keeps α up while the ray meets its plane far
-/// behind), so 2DGS's kernel gives those pixels depths far behind the
-/// sphere; without the cluster filter they fuse into fragments up to 6
-/// units away. The flat discs themselves stand off the sphere by d²/2r
-/// at distance d from their centre (≤ 0.0008 within one σ, 0.04 voxel).
+/// Measured (the output is deterministic): 0.080 voxel RMS, max 0.34
+/// (ratio 0); 0.087, max 0.36 (ratio 1). The same fusion of the exact
+/// sphere mesh gives 0.056 RMS, the floor of the TSDF itself (nearest-pixel
+/// depth lookup on a slope, marching cubes). With 20 cameras the figures
+/// are 0.136 / 0.143 (exact mesh 0.098), which is why 80 are used: the
+/// excess over the mesh comes from the silhouettes, where a disc seen
+/// edge-on still covers pixels through its low-pass term, and more views
+/// outvote those samples in each voxel's weighted average. With the
+/// sphere's own masks (as 2DGS's DTU runs use) 20 cameras give 0.116 /
+/// 0.131. The flat discs themselves stand off the sphere by d²/2r at
+/// distance d from their centre (≤ 0.0008 within one σ, 0.04 voxel).
 #[test]
 fn tsdf_fuse_of_a_surfel_sphere_lands_on_the_sphere() {
     let dir = tempfile::tempdir().unwrap();
     let ply = dir.path().join("surfels.ply");
     save_surfels(&ply, &surfel_sphere(6000, 1.0, 0.04, 7)).unwrap();
-    let cams = write_cameras(dir.path(), 20, 192, 206.0);
+    let cams = write_cameras(dir.path(), 80, 192, 206.0);
     let voxel = 0.02;
     for ratio in ["0", "1"] {
         let out = dir.path().join(format!("fused_{ratio}.ply"));
@@ -107,8 +108,8 @@ fn tsdf_fuse_of_a_surfel_sphere_lands_on_the_sphere() {
             max / voxel
         );
         assert!(m.vertices.len() > 10_000, "{} vertices", m.vertices.len());
-        assert!(rms < 0.2 * voxel, "RMS {rms} ≥ 0.2 voxel");
-        assert!(max < 1.5 * voxel, "max {max} ≥ 1.5 voxel");
+        assert!(rms < 0.1 * voxel, "RMS {rms} ≥ 0.1 voxel");
+        assert!(max < 0.5 * voxel, "max {max} ≥ 0.5 voxel");
         let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
         assert_eq!(
             r["depth_ratio"].as_f64().unwrap(),

@@ -6,8 +6,6 @@
 //! names a folder, a checkpoint written by splatkit is also left there for the
 //! script's `--check` mode (torch.load of our writer's output).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::PathBuf;
 
 use rand::{RngExt, SeedableRng};
@@ -15,46 +13,8 @@ use rand_pcg::Pcg64;
 use splatkit::io::torch_pt::{parse_triangle_checkpoint, write_triangle_checkpoint};
 use splatkit::model::TriangleSoup;
 
-thread_local! {
-    static LARGEST: Cell<usize> = const { Cell::new(0) };
-}
-
-fn note(size: usize) {
-    let _ = LARGEST.try_with(|m| {
-        if size > m.get() {
-            m.set(size)
-        }
-    });
-}
-
-struct Tracking;
-
-// SAFETY: every call is forwarded unchanged to the system allocator; the
-// bookkeeping only touches a const-initialised thread-local Cell.
-unsafe impl GlobalAlloc for Tracking {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note(layout.size());
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note(layout.size());
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note(new_size);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static ALLOC: Tracking = Tracking;
+#[path = "common/largest_alloc.rs"]
+mod largest_alloc;
 
 fn soup(n: usize, seed: u64) -> TriangleSoup {
     let mut rng = Pcg64::seed_from_u64(seed);
@@ -88,13 +48,14 @@ fn first_entry(bytes: &[u8]) -> (usize, usize) {
 /// Parses `bytes` (no panic allowed) and returns the largest single
 /// allocation made meanwhile.
 fn largest_allocation_parsing(bytes: &[u8]) -> usize {
-    LARGEST.with(|m| m.set(0));
-    let r = std::panic::catch_unwind(|| parse_triangle_checkpoint("m.pt", bytes));
+    let (r, largest) = largest_alloc::during(|| {
+        std::panic::catch_unwind(|| parse_triangle_checkpoint("m.pt", bytes))
+    });
     assert!(r.is_ok(), "the reader panicked");
     if let Ok(Ok(s)) = r {
         s.validate().unwrap();
     }
-    LARGEST.with(|m| m.get())
+    largest
 }
 
 /// Corrupted checkpoints (truncations, bit flips, large integers written over

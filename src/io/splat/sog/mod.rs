@@ -170,7 +170,10 @@ impl Images<'_> {
                 })?;
                 let size = f.size();
                 crate::io::budget::check(&format!("{name}: zip entry {path}"), size)?;
-                let mut v = Vec::with_capacity(size as usize);
+                // The header's size is a claim: memory follows the bytes that
+                // actually inflate (a few-KB zip may declare a 1 GiB entry;
+                // found by fuzzing), so only the first 16 MiB are reserved.
+                let mut v = Vec::with_capacity(size.min(1 << 24) as usize);
                 (&mut f)
                     .take(size + 1)
                     .read_to_end(&mut v)

@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use super::webp::{self, Rgba};
+use super::webp;
 use super::{Images, Meta};
 use crate::io::budget;
 use crate::model::Gaussians;
@@ -118,16 +118,20 @@ pub(super) fn decode(name: &str, meta: &Meta, images: &mut Images) -> Result<Gau
     )?;
     need_len(name, &meta.means.mins, 3, "means.mins")?;
     need_len(name, &meta.means.maxs, 3, "means.maxs")?;
-    let mut img = |key: &str, files: &[String], i: usize, min: u64| -> Result<Rgba> {
+    // A per-Gaussian image is one texel per Gaussian in whole rows: a SOG
+    // writer makes it just large enough (at most a few rows larger), so one
+    // of more than twice the texels (+65,536) is refused.
+    let per_gaussian = (count, count.saturating_mul(2).saturating_add(1 << 16));
+    let mut img = |key: &str, files: &[String], i: usize, (min, max): (u64, u64)| {
         let f = file(name, files, i, key)?.to_string();
         let bytes = images.load(name, &f)?;
-        webp::decode(&format!("{name}: {f}"), &bytes, min)
+        webp::decode(&format!("{name}: {f}"), &bytes, min, max)
     };
-    let lo = img("means", &meta.means.files, 0, count)?;
-    let hi = img("means", &meta.means.files, 1, count)?;
-    let quats = img("quats", &meta.quats.files, 0, count)?;
-    let scales = img("scales", &meta.scales.files, 0, count)?;
-    let sh0 = img("sh0", &meta.sh0.files, 0, count)?;
+    let lo = img("means", &meta.means.files, 0, per_gaussian)?;
+    let hi = img("means", &meta.means.files, 1, per_gaussian)?;
+    let quats = img("quats", &meta.quats.files, 0, per_gaussian)?;
+    let scales = img("scales", &meta.scales.files, 0, per_gaussian)?;
+    let sh0 = img("sh0", &meta.sh0.files, 0, per_gaussian)?;
 
     let mins = &meta.means.mins;
     let maxs = &meta.means.maxs;
@@ -204,8 +208,10 @@ pub(super) fn decode(name: &str, meta: &Meta, images: &mut Images) -> Result<Gau
     let (sh_degree, sh_rest) = match &meta.sh_n {
         None => (0, Vec::new()),
         Some(s) => {
-            let cent = img("shN", &s.files, 0, 0)?;
-            let labels = img("shN", &s.files, 1, count)?;
+            // 16-bit labels address at most 65,536 palette entries, 64 to a
+            // row of at most 15 coefficients: 960 × 1024 texels.
+            let cent = img("shN", &s.files, 0, (0, 960 * 1024))?;
+            let labels = img("shN", &s.files, 1, per_gaussian)?;
             let (bands, k) = if v2 {
                 (bands, k)
             } else {

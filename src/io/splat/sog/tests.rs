@@ -292,7 +292,7 @@ fn our_bundle_has_splat_transforms_layout() {
         let mut z = zip::ZipArchive::new(std::io::Cursor::new(b.to_vec())).unwrap();
         let mut v = Vec::new();
         z.by_name(f).unwrap().read_to_end(&mut v).unwrap();
-        let img = webp::decode(f, &v, 0).unwrap();
+        let img = webp::decode(f, &v, 0, u64::MAX).unwrap();
         (img.width, img.height)
     };
     for f in [

@@ -34,10 +34,11 @@ impl Rgba {
 }
 
 /// Decodes a WebP image to RGBA. `what` names the image in errors
-/// (`"scene.sog: means_l.webp"`); `min_texels` is the number of texels the
-/// caller will read (the image is refused when smaller). Lossy WebP is
-/// refused: SOG images must be lossless to hold codebook labels.
-pub fn decode(what: &str, bytes: &[u8], min_texels: u64) -> Result<Rgba> {
+/// (`"scene.sog: means_l.webp"`); the image must hold between `min_texels`
+/// (what the caller will read) and `max_texels` texels, checked from its
+/// header before any pixel is allocated. Lossy WebP is refused: SOG images
+/// must be lossless to hold codebook labels.
+pub fn decode(what: &str, bytes: &[u8], min_texels: u64, max_texels: u64) -> Result<Rgba> {
     let fail = |e: image_webp::DecodingError| Error::format(what, format!("WebP: {e}"));
     let mut d = WebPDecoder::new(Cursor::new(bytes)).map_err(fail)?;
     let (width, height) = d.dimensions();
@@ -48,16 +49,13 @@ pub fn decode(what: &str, bytes: &[u8], min_texels: u64) -> Result<Rgba> {
             format!("image is {width}x{height}, fewer than the {min_texels} texels it must hold"),
         ));
     }
-    // A SOG writer makes each image just large enough for what it holds
-    // (whole rows); a much larger one is refused before its pixels are
-    // allocated (a few-KB lossless WebP may declare 16383x16383: found by
-    // fuzzing, where the decode's 1 GiB buffers hit the address-space limit).
-    if min_texels > 0 && texels > min_texels.saturating_mul(2).saturating_add(1 << 16) {
+    // A few-KB lossless WebP may declare 16383x16383 (found by fuzzing).
+    if texels > max_texels {
         return Err(Error::format(
             what,
             format!(
-                "image is {width}x{height}, far more than the {min_texels} texels it holds \
-                 (a SOG image is at most a few rows larger)"
+                "image is {width}x{height}, more than the {max_texels} texels a SOG image \
+                 of this kind holds"
             ),
         ));
     }
