@@ -5,8 +5,9 @@
 #   scripts/bench_splat_formats.sh [WORKDIR]     (default /tmp/splatkit-bench-splats)
 #
 # 1. Writes a deterministic 1,000,000-Gaussian SH-degree-3 3DGS PLY (numpy, seed 0;
-#    248 MB), and converts it with splatkit's `convert --lossy` to .compressed.ply and
-#    .splat, and with GaussianSplats3D (node) to a level-1 .ksplat (SH degree 2).
+#    248 MB), and converts it with splatkit's `convert --lossy` to .compressed.ply,
+#    .splat, .spz and .sog, and with GaussianSplats3D (node) to a level-1 .ksplat
+#    (SH degree 2).
 # 2. Times, 3 runs each, median wall seconds of the whole process:
 #    splatkit: `read_splats FILE` (examples/read_splats.rs: the one loader, what every
 #    command does first), and the read time it reports itself;
@@ -54,6 +55,8 @@ PY
 fi
 [ -f "$work/bench.compressed.ply" ] || "$conv" "$src" -o "$work/bench.compressed.ply" --lossy --quiet
 [ -f "$work/bench.splat" ] || "$conv" "$src" -o "$work/bench.splat" --lossy --quiet
+[ -f "$work/bench.spz" ] || "$conv" "$src" -o "$work/bench.spz" --lossy --quiet
+[ -f "$work/bench.sog" ] || "$conv" "$src" -o "$work/bench.sog" --lossy --quiet
 if [ ! -f "$work/bench.ksplat" ]; then
   cat > "$npmdir/ksplat.mjs" <<'JS'
 import * as GS from '@mkkellogg/gaussian-splats-3d';
@@ -73,7 +76,7 @@ fi
 median() { sort -g | sed -n 2p; }
 secs() { local t0 t1; t0=$(date +%s.%N); "$@" >/dev/null 2>&1; t1=$(date +%s.%N); echo "$t1 - $t0" | bc -l; }
 printf '| format | file | size | splatkit (process) | splatkit (read) | splat-transform |\n|---|---|---|---|---|---|\n'
-for f in bench.ply bench.compressed.ply bench.splat bench.ksplat; do
+for f in bench.ply bench.compressed.ply bench.splat bench.ksplat bench.spz bench.sog; do
   p="$work/$f"; [ -f "$p" ] || continue
   cat "$p" >/dev/null
   ours=$(for i in 1 2 3; do secs "$reader" "$p"; done | median)

@@ -9,10 +9,12 @@ use; needs numpy and scipy (pip). BIN defaults to target/release/convert (built 
 testdata/splats/scene300/source.ply and, when the shared data are there,
 3dgs-kacytran-iter7000/point_cloud.ply.
 
-1. For each format `convert` writes (.compressed.ply, .splat) and each scene: `convert SCENE
-   -o OUT --lossy`, then `splat-transform OUT back.ply`, and the errors of what
+1. For each format `convert` writes (.compressed.ply, .splat, .spz, .sog) and each scene:
+   `convert SCENE -o OUT --lossy`, then `splat-transform OUT back.ply`, and the errors of what
    splat-transform read back against SCENE. Gaussians are matched by nearest position (the
-   compressed PLY is Morton-sorted), so a large position error would show as mismatches.
+   compressed PLY and SOG are Morton-sorted), so a large position error would show as mismatches.
+   A second table compares splat-transform's decode of OUT with splatkit's (`convert OUT -o
+   mine.ply`): the two readers of the same file.
 2. The real SuperSplat files (biker / guitar .compressed.ply, biker.spz) read by splatkit
    (`convert F -o ours.ply`) and by splat-transform (`splat-transform F theirs.ply`): the largest
    difference per attribute, Gaussian by Gaussian in file order.
@@ -146,9 +148,10 @@ def main(argv):
     print(f"splat-transform {ver}; errors max / RMS per component (rotation: max degrees)\n")
     print("| scene | format | bytes | position | colour | opacity | log scale | rotation ° | SH rest max | ours: position max |")
     print("|---|---|---|---|---|---|---|---|---|---|")
+    same = []
     for scene in scenes:
         src = attrs(read_ply(scene))
-        for ext in ["compressed.ply", "splat"]:
+        for ext in ["compressed.ply", "splat", "spz", "sog"]:
             out = os.path.join(tmp, "out." + ext)
             rep = os.path.join(tmp, "r.json")
             subprocess.run([conv, scene, "-o", out, "--lossy", "--quiet", f"--json={rep}"], check=True)
@@ -160,6 +163,17 @@ def main(argv):
             note = " (matching not one-to-one)" if dup else ""
             print(f"| {os.path.basename(scene)} ({len(src['op'])}) | {ext}{note} | {os.path.getsize(out):,} | {fmt(e)} | "
                   f"{ours['error']['position']['max']:.2e} |")
+            mine = os.path.join(tmp, "mine.ply")
+            subprocess.run([conv, out, "-o", mine, "--quiet"], check=True)
+            # the same file, so the same order: compared row by row
+            m, t = attrs(read_ply(mine)), attrs(read_ply(back))
+            same.append((os.path.basename(scene), len(src["op"]), ext, errors(m, t)))
+    print("\nThe files above read by splat-transform and by splatkit, row by row in file order "
+          "(max / RMS |ours - theirs|):\n")
+    print("| scene | format | position | colour | opacity | log scale | rotation ° | SH rest max |")
+    print("|---|---|---|---|---|---|---|---|")
+    for scene, n, ext, e in same:
+        print(f"| {scene} ({n}) | {ext} | {fmt(e)} |")
     print("\nReal files, splatkit's reader vs splat-transform's (max |ours - theirs|, file order):\n")
     print("| file | position | colour | opacity | log scale | rotation ° | SH rest max |")
     print("|---|---|---|---|---|---|---|")

@@ -71,16 +71,16 @@ struct Meta {
 #[derive(Debug, Deserialize)]
 struct Means {
     shape: Option<Vec<u64>>,
-    mins: Vec<f32>,
-    maxs: Vec<f32>,
+    mins: Vec<f64>,
+    maxs: Vec<f64>,
     files: Vec<String>,
 }
 
 #[derive(Debug, Deserialize)]
 struct Table {
     codebook: Option<Vec<f32>>,
-    mins: Option<Vec<f32>>,
-    maxs: Option<Vec<f32>>,
+    mins: Option<Vec<f64>>,
+    maxs: Option<Vec<f64>>,
     files: Vec<String>,
 }
 
@@ -94,8 +94,8 @@ struct ShN {
     count: Option<u64>,
     bands: Option<u32>,
     codebook: Option<Vec<f32>>,
-    mins: Option<f32>,
-    maxs: Option<f32>,
+    mins: Option<f64>,
+    maxs: Option<f64>,
     files: Vec<String>,
 }
 

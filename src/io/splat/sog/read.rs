@@ -10,16 +10,21 @@ use crate::{Error, Result};
 
 /// SH rest coefficients per channel for bands 1–3.
 const SH_COEFFS: [usize; 4] = [0, 3, 8, 15];
-const ALPHA_EPS: f32 = 1e-6;
+const ALPHA_EPS: f64 = 1e-6;
 
-fn inv_log(v: f32) -> f32 {
+// The decoding arithmetic is f64, rounded to f32 once at the end, as
+// splat-transform's reader (JavaScript numbers into Float32Arrays) does: the
+// two decodes of one file then agree to the last bit (f32 arithmetic differed
+// by up to 12 ulps in positions after the exp of the log transform).
+
+fn inv_log(v: f64) -> f32 {
     let e = v.abs().exp() - 1.0;
-    if v < 0.0 { -e } else { e }
+    (if v < 0.0 { -e } else { e }) as f32
 }
 
-fn sigmoid_inv(y: f32) -> f32 {
+fn sigmoid_inv(y: f64) -> f32 {
     let e = y.clamp(ALPHA_EPS, 1.0 - ALPHA_EPS);
-    (e / (1.0 - e)).ln()
+    (e / (1.0 - e)).ln() as f32
 }
 
 /// Decodes a smallest-three quaternion texel to (w, x, y, z); an invalid tag
@@ -135,7 +140,7 @@ pub(super) fn decode(name: &str, meta: &Meta, images: &mut Images) -> Result<Gau
 
     let mins = &meta.means.mins;
     let maxs = &meta.means.maxs;
-    let span: [f32; 3] = std::array::from_fn(|a| {
+    let span: [f64; 3] = std::array::from_fn(|a| {
         let s = maxs[a] - mins[a];
         if s == 0.0 { 1.0 } else { s }
     });
@@ -145,7 +150,7 @@ pub(super) fn decode(name: &str, meta: &Meta, images: &mut Images) -> Result<Gau
             let (l, h) = (lo.texel(i), hi.texel(i));
             std::array::from_fn(|a| {
                 let q = l[a] as u32 | (h[a] as u32) << 8;
-                inv_log(mins[a] + span[a] * (q as f32 / 65535.0))
+                inv_log(mins[a] + span[a] * (q as f64 / 65535.0))
             })
         })
         .collect();
@@ -173,7 +178,7 @@ pub(super) fn decode(name: &str, meta: &Meta, images: &mut Images) -> Result<Gau
                 })
                 .collect(),
             (0..n)
-                .map(|i| sigmoid_inv(sh0.texel(i)[3] as f32 / 255.0))
+                .map(|i| sigmoid_inv(sh0.texel(i)[3] as f64 / 255.0))
                 .collect(),
         )
     } else {
@@ -185,7 +190,7 @@ pub(super) fn decode(name: &str, meta: &Meta, images: &mut Images) -> Result<Gau
         need_len(name, smax, 3, "scales.maxs")?;
         need_len(name, cmin, 4, "sh0.mins")?;
         need_len(name, cmax, 4, "sh0.maxs")?;
-        let lin = |lo: f32, hi: f32, b: u8| lo + (hi - lo) * (b as f32 / 255.0);
+        let lin = |lo: f64, hi: f64, b: u8| (lo + (hi - lo) * (b as f64 / 255.0)) as f32;
         (
             (0..n)
                 .map(|i| {
@@ -251,7 +256,7 @@ pub(super) fn decode(name: &str, meta: &Meta, images: &mut Images) -> Result<Gau
                 let lo = *need(name, &s.mins, "shN.mins")?;
                 let hi = *need(name, &s.maxs, "shN.maxs")?;
                 (0..256)
-                    .map(|b| lo + (hi - lo) * (b as f32 / 255.0))
+                    .map(|b| (lo + (hi - lo) * (b as f64 / 255.0)) as f32)
                     .collect()
             };
             let palette_count = if v2 {
