@@ -232,6 +232,22 @@ fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
     v
 }
 
+/// Runs `CMD SCENE --cameras CAMS -o DIR/OUT --json ARGS…`, which must
+/// succeed; returns its JSON report and the output path.
+fn run_with_cameras(
+    cmd: &str,
+    scene: &Path,
+    cams: &Path,
+    out: PathBuf,
+    args: &[&str],
+) -> (Value, PathBuf) {
+    let mut all = vec![s(scene), "--cameras", s(cams), "-o", s(&out), "--json"];
+    all.extend_from_slice(args);
+    let o = run(cmd, &all, None);
+    succeeds(&o);
+    (json_of(&o), out)
+}
+
 /// `render` of the filtered file picks the Mip filter (its report says
 /// "mip 0.1") and gives the same bytes as the baked file with
 /// `--filter-2d mip`; the raw values with the same filter (the 3-D filter
@@ -243,12 +259,8 @@ fn render_applies_the_filter() {
     let cams = dir.path().join("cameras.json");
     splatkit::io::cameras::write_gs_json(&cams, &cameras_around(3, 3.5, 64, 80.0)).unwrap();
     let go = |scene: &Path, name: &str, extra: &[&str]| {
-        let o = dir.path().join(name);
-        let mut args = vec![s(scene), "--cameras", s(&cams), "-o", s(&o), "--json"];
-        args.extend_from_slice(extra);
-        let out = run("render", &args, None);
-        succeeds(&out);
-        (json_of(&out), files(&o))
+        let (j, o) = run_with_cameras("render", scene, &cams, dir.path().join(name), extra);
+        (j, files(&o))
     };
     let (j, a) = go(&filtered, "a", &[]);
     assert_eq!(j["filter_2d"], "mip 0.1");
@@ -274,25 +286,17 @@ fn tsdf_fuse_applies_the_filter() {
     let cams = dir.path().join("cameras.json");
     splatkit::io::cameras::write_gs_json(&cams, &cameras_around(10, 3.5, 64, 80.0)).unwrap();
     let go = |scene: &Path, name: &str, extra: &[&str]| {
-        let o = dir.path().join(name);
         let mut args = vec![
-            s(scene),
-            "--cameras",
-            s(&cams),
-            "-o",
-            s(&o),
             "--voxel",
             "0.04",
             "--sdf-trunc",
             "0.16",
             "--depth-trunc",
             "10",
-            "--json",
         ];
         args.extend_from_slice(extra);
-        let out = run("tsdf-fuse", &args, None);
-        succeeds(&out);
-        (json_of(&out), std::fs::read(&o).unwrap())
+        let (j, o) = run_with_cameras("tsdf-fuse", scene, &cams, dir.path().join(name), &args);
+        (j, std::fs::read(&o).unwrap())
     };
     let (j, a) = go(&filtered, "a.ply", &[]);
     assert_eq!(j["filter_2d"], "mip 0.1");
@@ -311,25 +315,11 @@ fn splat2points_applies_the_filter() {
     let cams = dir.path().join("cameras.json");
     splatkit::io::cameras::write_gs_json(&cams, &cameras_around(6, 3.5, 64, 80.0)).unwrap();
     let go = |scene: &Path, name: &str, extra: &[&str]| {
-        let o = dir.path().join(name);
-        let mut args = vec![
-            s(scene),
-            "--cameras",
-            s(&cams),
-            "--all-views",
-            "--method",
-            "depth",
-            // the baked opacity of these thin discs is ≈ 0.46
-            "--min-opacity",
-            "0.05",
-            "-o",
-            s(&o),
-            "--json",
-        ];
+        // the baked opacity of these thin discs is ≈ 0.46
+        let mut args = vec!["--all-views", "--method", "depth", "--min-opacity", "0.05"];
         args.extend_from_slice(extra);
-        let out = run("splat2points", &args, None);
-        succeeds(&out);
-        (json_of(&out), std::fs::read(&o).unwrap())
+        let (j, o) = run_with_cameras("splat2points", scene, &cams, dir.path().join(name), &args);
+        (j, std::fs::read(&o).unwrap())
     };
     let (j, a) = go(&filtered, "a.ply", &[]);
     assert_eq!(j["filter_2d"], "mip 0.1");

@@ -10,81 +10,35 @@
 //! `RAYON_NUM_THREADS=2 cargo run --release -p splatkit-render --example surfel_timing -- [W H ITERS]`
 use std::time::Instant;
 
-use glam::{DMat3, DQuat, DVec3};
-use splatkit_render::Camera;
+use glam::{DQuat, DVec3};
 use splatkit_render::surfel::{SurfelSettings, Surfels2, rasterize};
 use splatkit_render::surfel_grad::{SurfelAuxGrads, backward_state};
 
+#[path = "support/timing_scene.rs"]
+mod timing_scene;
+
 fn main() {
-    let a: Vec<usize> = std::env::args()
-        .skip(1)
-        .map(|s| {
-            s.parse().unwrap_or_else(|_| {
-                panic!("usage: surfel_timing [W H ITERS]; {s:?} is not a count")
-            })
-        })
-        .collect();
-    let (w, h, iters) = (
-        *a.first().unwrap_or(&400),
-        *a.get(1).unwrap_or(&300),
-        *a.get(2).unwrap_or(&5),
-    );
-    assert!(
-        w > 0 && h > 0 && iters > 0,
-        "W, H and ITERS must be positive"
-    );
+    let (w, h, iters) = timing_scene::sizes("surfel_timing", 5);
     let n = 200_000;
     let mut sf = Surfels2 {
         sh_degree: 3,
         ..Default::default()
     };
-    let spacing = (4.0 * std::f64::consts::PI / n as f64).sqrt() as f32;
-    let mut state = 0x9e3779b97f4a7c15u64;
-    let mut rnd = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 40) as f32) / (1u64 << 24) as f32
-    };
-    for i in 0..n {
-        let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-        let r = (1.0 - y * y).sqrt();
-        let th = i as f64 * 2.399_963_229_728_653;
-        let p = DVec3::new(r * th.cos(), y, r * th.sin());
+    let mut rnd = timing_scene::Rng::new();
+    let (points, spacing) = timing_scene::fibonacci_sphere(n);
+    for p in points {
         sf.means.push(p.as_vec3().to_array());
         sf.scales.push([spacing; 2]);
         let q = DQuat::from_rotation_arc(DVec3::Z, p);
         sf.rotations
             .push([q.w as f32, q.x as f32, q.y as f32, q.z as f32]);
         sf.opacities.push(0.1);
-        for k in 0..16 {
-            let s = if k == 0 { 1.0 } else { 0.1 };
-            sf.sh
-                .push([s * (rnd() - 0.5), s * (rnd() - 0.5), s * (rnd() - 0.5)]);
-        }
+        sf.sh.extend(rnd.sh16());
     }
-    let f = (w as f64 / 2.0) / (25f64.to_radians()).tan();
-    let center = DVec3::new(0.3, -0.4, -3.0).normalize() * 3.0;
-    let fwd = (-center).normalize();
-    let right = fwd.cross(DVec3::Y).normalize();
-    let down = fwd.cross(right);
-    let (rot, t) = Camera::pose_from_c2w(DMat3::from_cols(right, down, fwd), center);
-    let cam = Camera::pinhole(
-        "bench",
-        w as u32,
-        h as u32,
-        f,
-        f,
-        w as f64 / 2.0,
-        h as f64 / 2.0,
-        rot,
-        t,
-    );
+    let cam = timing_scene::camera(w, h);
     let s = SurfelSettings::default();
-    let d_rgb: Vec<[f32; 3]> = (0..w * h)
-        .map(|_| [rnd() - 0.5, rnd() - 0.5, rnd() - 0.5])
-        .collect();
-    let one: Vec<f32> = (0..w * h).map(|_| rnd() - 0.5).collect();
+    let d_rgb = rnd.rgb(w * h);
+    let one: Vec<f32> = (0..w * h).map(|_| rnd.next() - 0.5).collect();
     let aux = SurfelAuxGrads {
         alpha: Some(&one),
         depth: Some(&one),
