@@ -102,55 +102,105 @@ pub fn centers(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> 
         })
         .collect();
     // votes (seen, in view) per Gaussian: +1 when the axis faces the camera
-    let mut seen = vec![0i64; kept.len()];
-    let mut in_view = vec![0i64; kept.len()];
+    let mut votes = CenterVotes::new(kept.len());
     for cam in cams {
         let z = diamond_zbuffer(&kept, cam, near);
         let w = cam.width as usize;
-        let votes: Vec<(i64, i64)> = (0..kept.len())
-            .into_par_iter()
-            .map(|i| {
-                let mu = glam::DVec3::from(kept.means[i].map(f64::from));
-                let Some((px, d)) = cam.project(mu) else {
-                    return (0, 0);
-                };
-                if d <= near
-                    || px.x < 0.0
-                    || px.y < 0.0
-                    || px.x >= cam.width as f64
-                    || px.y >= cam.height as f64
-                {
-                    return (0, 0);
-                }
-                let sign = if axes[i].dot(cam.center() - mu) >= 0.0 {
-                    1
-                } else {
-                    -1
-                };
-                let o = px.y as usize * w + px.x as usize;
-                // nothing in front of it beyond its own diamond's reach
-                let reach = 2.0 * kept.scales[i].iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
-                let visible = z[o].is_some_and(|(depth, _)| depth as f64 >= d - reach);
-                (if visible { sign } else { 0 }, sign)
-            })
-            .collect();
-        for (i, (a, b)) in votes.into_iter().enumerate() {
-            seen[i] += a;
-            in_view[i] += b;
+        votes.add(
+            (0..kept.len())
+                .into_par_iter()
+                .map(|i| {
+                    let mu = glam::DVec3::from(kept.means[i].map(f64::from));
+                    let Some((px, d)) = project_in_frame(cam, mu, near) else {
+                        return (0.0, 0.0);
+                    };
+                    let sign = if axes[i].dot(cam.center() - mu) >= 0.0 {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    let o = px.y as usize * w + px.x as usize;
+                    // nothing in front of it beyond its own diamond's reach
+                    let reach =
+                        2.0 * kept.scales[i].iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
+                    let visible = z[o].is_some_and(|(depth, _)| depth as f64 >= d - reach);
+                    (if visible { sign } else { 0.0 }, sign)
+                })
+                .collect(),
+        );
+    }
+    votes.points(&keep, &axes, &g.means, &g.sh, nc)
+}
+
+/// Pixel and depth of `mu` in `cam` when its centre lies in the image and
+/// beyond the near plane.
+pub(super) fn project_in_frame(
+    cam: &Camera,
+    mu: glam::DVec3,
+    near: f64,
+) -> Option<(glam::DVec2, f64)> {
+    let (px, d) = cam.project(mu)?;
+    let inside = d > near
+        && px.x >= 0.0
+        && px.y >= 0.0
+        && px.x < cam.width as f64
+        && px.y < cam.height as f64;
+    inside.then_some((px, d))
+}
+
+/// The orientation votes of the centre methods: per kept splat, the sum of
+/// its votes over the views that see it and over all views with its centre
+/// in the image. Integer votes (±1) are exact in f64.
+pub(super) struct CenterVotes {
+    seen: Vec<f64>,
+    in_view: Vec<f64>,
+}
+
+impl CenterVotes {
+    pub(super) fn new(n: usize) -> Self {
+        CenterVotes {
+            seen: vec![0.0; n],
+            in_view: vec![0.0; n],
         }
     }
-    let mut out = LevelPoints::default();
-    for (k, &i) in keep.iter().enumerate() {
-        let vote = if seen[k] != 0 { seen[k] } else { in_view[k] };
-        let n = if vote < 0 { -axes[k] } else { axes[k] };
-        out.positions.push(g.means[i]);
-        out.normals.push([n.x as f32, n.y as f32, n.z as f32]);
-        out.colors
-            .push(g.sh[i * nc].map(|v| (sh_to_rgb(v).clamp(0.0, 1.0) * 255.0).round() as u8));
-        out.level.push(0.0);
-        out.camera.push(u32::MAX);
+
+    /// Adds one view's (seen, in view) vote per kept splat.
+    pub(super) fn add(&mut self, votes: Vec<(f64, f64)>) {
+        for (k, (a, b)) in votes.into_iter().enumerate() {
+            self.seen[k] += a;
+            self.in_view[k] += b;
+        }
     }
-    out
+
+    /// The points: kept splat `keep[k]`'s centre, its axis `axes[k]` turned
+    /// to the side its votes chose (the seen votes, or the in-view votes
+    /// when no view sees it), its DC colour (`sh` holds `nc` coefficients
+    /// per splat).
+    pub(super) fn points(
+        &self,
+        keep: &[usize],
+        axes: &[glam::DVec3],
+        means: &[[f32; 3]],
+        sh: &[[f32; 3]],
+        nc: usize,
+    ) -> LevelPoints {
+        let mut out = LevelPoints::default();
+        for (k, &i) in keep.iter().enumerate() {
+            let vote = if self.seen[k] != 0.0 {
+                self.seen[k]
+            } else {
+                self.in_view[k]
+            };
+            let n = if vote < 0.0 { -axes[k] } else { axes[k] };
+            out.positions.push(means[i]);
+            out.normals.push([n.x as f32, n.y as f32, n.z as f32]);
+            out.colors
+                .push(sh[i * nc].map(|v| (sh_to_rgb(v).clamp(0.0, 1.0) * 255.0).round() as u8));
+            out.level.push(0.0);
+            out.camera.push(u32::MAX);
+        }
+        out
+    }
 }
 
 /// Back-projected median-depth maps (see the module docs).

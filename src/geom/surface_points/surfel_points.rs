@@ -25,11 +25,12 @@
 //!   colour C0·f_dc + 0.5.
 
 use rayon::prelude::*;
-use splatkit_render::sh::sh_to_rgb;
 use splatkit_render::surfel::{self, SurfelSettings, Surfels2};
 
 use crate::geom::surface_points::levelset::LevelPoints;
-use crate::geom::surface_points::splat_points::{PointMethod, depth_points_of};
+use crate::geom::surface_points::splat_points::{
+    CenterVotes, PointMethod, depth_points_of, project_in_frame,
+};
 use crate::model::Camera;
 use crate::{Error, Result};
 
@@ -125,50 +126,28 @@ pub fn surfel_centers(s: &Surfels2, cams: &[Camera], min_opacity: f32, near: f64
     // votes (seen, in view) per kept surfel: the cosine between the normal
     // and the direction to the camera (a grazing view, which cannot tell the
     // disc's sides apart, weighs little)
-    let mut seen = vec![0.0f64; keep.len()];
-    let mut in_view = vec![0.0f64; keep.len()];
+    let mut votes = CenterVotes::new(keep.len());
     for cam in cams {
         let depth = surfel::render(&dc, cam, &st).opaque_median_depth();
         let w = cam.width as usize;
-        let votes: Vec<(f64, f64)> = keep
-            .par_iter()
-            .zip(&axes)
-            .map(|(&i, axis)| {
-                let mu = glam::DVec3::from(s.means[i].map(f64::from));
-                let Some((px, d)) = cam.project(mu) else {
-                    return (0.0, 0.0);
-                };
-                if d <= near
-                    || px.x < 0.0
-                    || px.y < 0.0
-                    || px.x >= cam.width as f64
-                    || px.y >= cam.height as f64
-                {
-                    return (0.0, 0.0);
-                }
-                let cos = axis.dot((cam.center() - mu).normalize_or_zero());
-                let z = depth[px.y as usize * w + px.x as usize] as f64;
-                let reach = surfel::CUTOFF * s.scales[i][0].abs().max(s.scales[i][1].abs()) as f64;
-                let visible = z <= 0.0 || z >= d - reach;
-                (if visible { cos } else { 0.0 }, cos)
-            })
-            .collect();
-        for (k, (a, b)) in votes.into_iter().enumerate() {
-            seen[k] += a;
-            in_view[k] += b;
-        }
+        votes.add(
+            keep.par_iter()
+                .zip(&axes)
+                .map(|(&i, axis)| {
+                    let mu = glam::DVec3::from(s.means[i].map(f64::from));
+                    let Some((px, d)) = project_in_frame(cam, mu, near) else {
+                        return (0.0, 0.0);
+                    };
+                    let cos = axis.dot((cam.center() - mu).normalize_or_zero());
+                    let z = depth[px.y as usize * w + px.x as usize] as f64;
+                    let reach =
+                        surfel::CUTOFF * s.scales[i][0].abs().max(s.scales[i][1].abs()) as f64;
+                    let visible = z <= 0.0 || z >= d - reach;
+                    (if visible { cos } else { 0.0 }, cos)
+                })
+                .collect(),
+        );
     }
     let nc = (s.sh_degree + 1) * (s.sh_degree + 1);
-    let mut out = LevelPoints::default();
-    for (k, &i) in keep.iter().enumerate() {
-        let vote = if seen[k] != 0.0 { seen[k] } else { in_view[k] };
-        let n = if vote < 0.0 { -axes[k] } else { axes[k] };
-        out.positions.push(s.means[i]);
-        out.normals.push([n.x as f32, n.y as f32, n.z as f32]);
-        out.colors
-            .push(s.sh[i * nc].map(|v| (sh_to_rgb(v).clamp(0.0, 1.0) * 255.0).round() as u8));
-        out.level.push(0.0);
-        out.camera.push(u32::MAX);
-    }
-    out
+    votes.points(&keep, &axes, &s.means, &s.sh, nc)
 }
