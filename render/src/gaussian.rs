@@ -39,6 +39,7 @@ use rayon::prelude::*;
 use crate::Camera;
 use crate::dual::{Real, dot3, sh_rgb};
 use crate::sh::coeff_count;
+pub use crate::splats::Splats;
 
 pub use crate::tiles::TILE;
 use crate::tiles::{
@@ -46,48 +47,9 @@ use crate::tiles::{
     tile_pixels, tile_rect, tile_rect_cuda,
 };
 
-/// Gaussians as the rasteriser wants them: activated values.
-#[derive(Clone, Debug, Default)]
-pub struct Gaussians3 {
-    /// Means, world units.
-    pub means: Vec<[f32; 3]>,
-    /// Standard deviations along the local axes (exp of the stored log scales).
-    pub scales: Vec<[f32; 3]>,
-    /// Rotations as quaternions (w, x, y, z), any length (normalised here).
-    pub rotations: Vec<[f32; 4]>,
-    /// Opacities in [0, 1] (sigmoid of the stored logits).
-    pub opacities: Vec<f32>,
-    /// SH coefficients per Gaussian, coefficient-major, `(degree+1)²` each.
-    pub sh: Vec<[f32; 3]>,
-    /// SH degree, 0–3.
-    pub sh_degree: usize,
-}
-
-impl Gaussians3 {
-    /// Number of Gaussians.
-    pub fn len(&self) -> usize {
-        self.means.len()
-    }
-
-    /// True when there are none.
-    pub fn is_empty(&self) -> bool {
-        self.means.is_empty()
-    }
-
-    /// The same Gaussians with SH degree 0 (the DC term only), as 2DGS
-    /// renders them for meshing (`active_sh_degree = 0`).
-    pub fn dc_only(&self) -> Gaussians3 {
-        let n = crate::sh::coeff_count(self.sh_degree);
-        Gaussians3 {
-            means: self.means.clone(),
-            scales: self.scales.clone(),
-            rotations: self.rotations.clone(),
-            opacities: self.opacities.clone(),
-            sh: self.sh.iter().step_by(n.max(1)).copied().collect(),
-            sh_degree: 0,
-        }
-    }
-}
+/// Gaussians as the rasteriser wants them: activated values (three scale
+/// axes; see [`Splats`]).
+pub type Gaussians3 = Splats<3>;
 
 /// The screen-space (2-D) filter added to each projected covariance Σ'.
 ///

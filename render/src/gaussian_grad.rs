@@ -47,47 +47,13 @@ use crate::Camera;
 use crate::gaussian::{Gaussians3, RasterSettings, RasterState, TILE, pixel_span, rotation_rows};
 use crate::gaussian_vjp::{ScreenGrad, colour_vjp, geometry_vjp};
 use crate::sh::coeff_count;
+pub use crate::splats::SplatGrads;
 use crate::tiles::{PREFETCH_DISTANCE, prefetch_ahead, tile_pixels};
 
-/// Gradients, shaped like [`Gaussians3`]'s fields, plus the screen-space
-/// mean gradient.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct GaussianGrads {
-    pub means: Vec<[f32; 3]>,
-    pub scales: Vec<[f32; 3]>,
-    pub rotations: Vec<[f32; 4]>,
-    pub opacities: Vec<f32>,
-    pub sh: Vec<[f32; 3]>,
-    /// ∂L/∂(x, y) of each Gaussian's projected mean in OpenCV pixel
-    /// coordinates (units: loss per pixel), through the per-pixel blending
-    /// only (as 3DGS's `viewspace_points` gradient: not through the conic,
-    /// depth or colour); zero for Gaussians this view culled. 3DGS's
-    /// densification statistic is the norm of this gradient in NDC units:
-    /// see [`GaussianGrads::means2d_ndc`].
-    pub means2d: Vec<[f32; 2]>,
-}
-
-impl GaussianGrads {
-    /// [`GaussianGrads::means2d`] in 3DGS's NDC units for a `width × height`
-    /// image: x times W/2, y times H/2 (3DGS maps NDC to pixels by
-    /// px = ((ndc + 1)·W − 1)/2, and its CUDA backward scales the pixel
-    /// gradient by 0.5·W, 0.5·H). The norm of this is what 3DGS compares
-    /// with `densify_grad_threshold` (0.0002), for a loss that is a mean
-    /// over pixels as its L1.
-    pub fn means2d_ndc(&self, width: u32, height: u32) -> Vec<[f32; 2]> {
-        self.means2d
-            .iter()
-            .map(|&d| means2d_to_ndc(d, width, height))
-            .collect()
-    }
-}
-
-/// One pixel-space mean gradient ∂L/∂(x, y) converted to 3DGS's NDC
-/// gradient: (x·W/2, y·H/2); see [`GaussianGrads::means2d_ndc`].
-#[inline]
-pub fn means2d_to_ndc(d: [f32; 2], width: u32, height: u32) -> [f32; 2] {
-    [d[0] * 0.5 * width as f32, d[1] * 0.5 * height as f32]
-}
+/// Gradients of a loss with respect to [`Gaussians3`]'s fields, plus the
+/// screen-space mean gradient (see [`SplatGrads`]).
+pub type GaussianGrads = SplatGrads<3>;
+pub use crate::splats::means2d_to_ndc;
 
 /// Per-pixel gradients of the loss with respect to the auxiliary outputs,
 /// each row-major `width × height` like the image, or `None` for zero.

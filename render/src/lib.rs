@@ -12,6 +12,8 @@
 //!   backward uses them; the Gaussian backward runs the hand-written reverse
 //!   sweep of `gaussian_vjp`, tested equal to them, because the training
 //!   loop spends its time there);
+//! - [`splats`]: the splat arrays the Gaussian and surfel rasterisers take
+//!   and the gradients they return, one type generic over the scale axes;
 //! - [`surfel`]: 2DGS's surfel rasteriser (ray–splat intersection, its
 //!   depth, normal and distortion maps) with its backward pass
 //!   [`surfel_grad`];
@@ -30,6 +32,7 @@ pub mod loss;
 pub mod mesh;
 pub mod optim;
 pub mod sh;
+pub mod splats;
 pub mod surfel;
 pub mod surfel_grad;
 #[cfg(test)]

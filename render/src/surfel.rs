@@ -85,6 +85,7 @@ use crate::Camera;
 use crate::dual::{Real, sh_rgb};
 use crate::gaussian::{RenderOutput, quat_matrix, rotation_rows};
 use crate::sh::coeff_count;
+pub use crate::splats::Splats;
 use crate::tiles::{
     PREFETCH_DISTANCE, TILE, TileLists, intersect_rects, prefetch_ahead, render_tiles, tile_pixels,
     tile_rect, tile_rect_cuda,
@@ -103,54 +104,10 @@ pub const FILTER_INV_SQUARE: f32 = 2.0;
 /// Transmittance at which a pixel stops (`test_T < 0.0001`).
 pub const T_STOP: f32 = 1e-4;
 
-/// 2D Gaussian surfels as the rasteriser wants them: activated values.
-#[derive(Clone, Debug, Default)]
-pub struct Surfels2 {
-    /// Centres, world units.
-    pub means: Vec<[f32; 3]>,
-    /// Standard deviations along the two tangent axes (exp of the stored
-    /// log-scales), world units.
-    pub scales: Vec<[f32; 2]>,
-    /// Rotations as quaternions (w, x, y, z), any length (normalised here).
-    /// Columns 0 and 1 of the rotation are the tangent axes, column 2 the
-    /// normal.
-    pub rotations: Vec<[f32; 4]>,
-    /// Opacities in [0, 1] (sigmoid of the stored logits).
-    pub opacities: Vec<f32>,
-    /// SH coefficients per surfel, coefficient-major, `(sh_degree+1)²` rows
-    /// each (as [`crate::gaussian::Gaussians3::sh`]).
-    pub sh: Vec<[f32; 3]>,
-    /// SH degree, 0–3.
-    pub sh_degree: usize,
-}
-
-impl Surfels2 {
-    /// Number of surfels.
-    pub fn len(&self) -> usize {
-        self.means.len()
-    }
-
-    /// True when there are none.
-    pub fn is_empty(&self) -> bool {
-        self.means.is_empty()
-    }
-
-    /// Panics unless every per-surfel array has one entry per surfel and
-    /// `sh` has `(sh_degree+1)²` rows per surfel (a caller's bug, as a wrong
-    /// buffer length is in every rasteriser entry point).
-    pub(crate) fn check_lengths(&self) {
-        let n = self.len();
-        assert!(self.sh_degree <= 3, "SH degree {} > 3", self.sh_degree);
-        assert_eq!(self.scales.len(), n, "one scale pair per surfel");
-        assert_eq!(self.rotations.len(), n, "one rotation per surfel");
-        assert_eq!(self.opacities.len(), n, "one opacity per surfel");
-        assert_eq!(
-            self.sh.len(),
-            n * coeff_count(self.sh_degree),
-            "(degree+1)² SH rows per surfel"
-        );
-    }
-}
+/// 2D Gaussian surfels as the rasteriser wants them: activated values (two
+/// tangent scale axes; the rotation's columns 0 and 1 are the tangent axes,
+/// column 2 the normal; see [`Splats`]).
+pub type Surfels2 = Splats<2>;
 
 /// Rasteriser settings; the default is 2DGS's.
 #[derive(Clone, Copy, Debug)]

@@ -52,43 +52,16 @@ use crate::gaussian::{RenderOutput, rotation_rows};
 use crate::gaussian_grad::AuxGrads;
 use crate::gaussian_vjp::colour_vjp;
 use crate::sh::coeff_count;
+pub use crate::splats::SplatGrads;
 use crate::surfel::{
     FILTER_INV_SQUARE, Hit, ProjectedSurfel, SurfelSettings, SurfelState, Surfels2, dist_map, hit,
     pixel_span, project_t, rasterize,
 };
 use crate::tiles::{PREFETCH_DISTANCE, TILE, prefetch_ahead, tile_pixels};
 
-/// Gradients, shaped like [`Surfels2`]'s fields, plus 2DGS's screen-space
-/// statistic.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct SurfelGrads {
-    pub means: Vec<[f32; 3]>,
-    /// With respect to the activated scales (standard deviations).
-    pub scales: Vec<[f32; 2]>,
-    /// With respect to the quaternion (w, x, y, z) as given (normalisation
-    /// included).
-    pub rotations: Vec<[f32; 4]>,
-    pub opacities: Vec<f32>,
-    pub sh: Vec<[f32; 3]>,
-    /// 2DGS's densification statistic before its NDC scaling: ∂L/∂T_u,z ·
-    /// T_w,z and ∂L/∂T_v,z · T_w,z (the gradient with respect to the
-    /// projected centre in pixels at fixed depth, through the per-pixel
-    /// ray–splat intersections only, not through the low-pass box centre
-    /// nor the colour), as the kernel's `dL_dmean2Ds` "hack"; zero for culled
-    /// surfels. See [`SurfelGrads::means2d_ndc`].
-    pub means2d: Vec<[f32; 2]>,
-}
-
-impl SurfelGrads {
-    /// [`SurfelGrads::means2d`] in the units 2DGS's densification compares
-    /// with its threshold: x·W/2, y·H/2.
-    pub fn means2d_ndc(&self, width: u32, height: u32) -> Vec<[f32; 2]> {
-        self.means2d
-            .iter()
-            .map(|d| [d[0] * 0.5 * width as f32, d[1] * 0.5 * height as f32])
-            .collect()
-    }
-}
+/// Gradients of a loss with respect to [`Surfels2`]'s fields, plus 2DGS's
+/// screen-space statistic (see [`SplatGrads`]).
+pub type SurfelGrads = SplatGrads<2>;
 
 /// Per-pixel gradients of the loss with respect to the auxiliary outputs,
 /// each row-major `width × height`, or `None` for zero.

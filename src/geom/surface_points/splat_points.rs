@@ -70,15 +70,6 @@ pub fn splat_to_points(
     })
 }
 
-fn dc_only(g: &Gaussians3) -> Gaussians3 {
-    let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
-    Gaussians3 {
-        sh: (0..g.len()).map(|i| g.sh[i * nc]).collect(),
-        sh_degree: 0,
-        ..g.clone()
-    }
-}
-
 /// Gaussian centres with opacity > `min_opacity` (see the module docs).
 pub fn centers(g: &Gaussians3, cams: &[Camera], min_opacity: f32, near: f64) -> LevelPoints {
     let nc = (g.sh_degree + 1) * (g.sh_degree + 1);
@@ -213,7 +204,7 @@ pub fn depth_points(
     filter_2d: Filter2d,
     progress: impl FnMut(usize),
 ) -> LevelPoints {
-    let dc = dc_only(g);
+    let dc = g.dc_only();
     let s = RasterSettings {
         background: [0.0; 3],
         near,

@@ -61,16 +61,6 @@ pub fn surfels_to_points(
     })
 }
 
-/// `s` with only its DC colour (SH degree 0).
-fn dc_only(s: &Surfels2) -> Surfels2 {
-    let nc = (s.sh_degree + 1) * (s.sh_degree + 1);
-    Surfels2 {
-        sh: (0..s.len()).map(|i| s.sh[i * nc]).collect(),
-        sh_degree: 0,
-        ..s.clone()
-    }
-}
-
 fn settings(near: f64) -> SurfelSettings {
     SurfelSettings {
         background: [0.0; 3],
@@ -89,7 +79,7 @@ pub fn surfel_depth_points(
     near: f64,
     progress: impl FnMut(usize),
 ) -> LevelPoints {
-    let dc = dc_only(s);
+    let dc = s.dc_only();
     let st = settings(near);
     depth_points_of(
         |cam| surfel::render(&dc, cam, &st),
@@ -121,7 +111,7 @@ pub fn surfel_centers(s: &Surfels2, cams: &[Camera], min_opacity: f32, near: f64
         .filter(|&i| s.opacities[i] > min_opacity && s.means[i].iter().all(|v| v.is_finite()))
         .collect();
     let axes: Vec<glam::DVec3> = keep.par_iter().map(|&i| disc_normal(s, i)).collect();
-    let dc = dc_only(s);
+    let dc = s.dc_only();
     let st = settings(near);
     // votes (seen, in view) per kept surfel: the cosine between the normal
     // and the direction to the camera (a grazing view, which cannot tell the
