@@ -6,9 +6,11 @@
 //! - [`marching_cubes`]: the polygon table both extractors share;
 //! - [`scene_split`]: SuGaR's foreground / background split and automatic
 //!   Poisson depth;
-//! - [`soup_mesh`]: a triangle-splat soup as a plain coloured mesh.
+//! - [`soup_mesh`]: a triangle-splat soup as a plain coloured mesh;
+//! - [`tetra`]: Gaussian Opacity Fields' marching-tetrahedra extraction.
 pub mod marching_cubes;
 pub mod poisson;
 pub mod scene_split;
 pub mod soup_mesh;
+pub mod tetra;
 pub mod tsdf;
