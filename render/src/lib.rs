@@ -17,6 +17,9 @@
 //! - [`surfel`]: 2DGS's surfel rasteriser (ray–splat intersection, its
 //!   depth, normal and distortion maps) with its backward pass
 //!   [`surfel_grad`];
+//! - [`gaussian_integrate`]: Gaussian Opacity Fields' opacity of 3-D points
+//!   (its `integrate` kernel per view and the minimum over views its mesh
+//!   extraction takes);
 //! - [`depth_normal`]: 2DGS's normals from depth and the depth–normal
 //!   consistency loss with its gradients;
 //! - [`loss`] (L1, SSIM with gradient, PSNR) and [`optim`] (Adam with
@@ -27,6 +30,7 @@ pub mod depth_normal;
 pub mod dual;
 pub mod gaussian;
 pub mod gaussian_grad;
+pub mod gaussian_integrate;
 pub(crate) mod gaussian_vjp;
 pub mod loss;
 pub mod mesh;

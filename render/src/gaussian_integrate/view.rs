@@ -1,0 +1,217 @@
+//! GOF's per-Gaussian preprocessing for one view (`preprocessCUDA` and
+//! `computeView2Gaussian` of its `forward.cu`) and the tile binning of
+//! `rasterizer_impl.cu`, as the integration kernel sees them.
+
+use rayon::prelude::*;
+
+use crate::Camera;
+use crate::dual::sh_rgb;
+use crate::gaussian::{Gaussians3, mip_coef, quat_matrix, rotation_rows};
+use crate::sh::coeff_count;
+use crate::tiles::{TILE, TileLists};
+
+/// GOF's `in_frustum` near test (`auxiliary.h`): Gaussians and points whose
+/// view z is at most this (in f32) are culled.
+pub const CULL_NEAR: f32 = 0.2;
+
+/// One Gaussian as GOF's integration kernel reads it in one view.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ViewGaussian {
+    /// `computeView2Gaussian`'s ten values: the symmetric matrix
+    /// Q S⁻² Qᵀ (upper triangle: 00, 01, 02, 11, 12, 22), the vector
+    /// B = Q S⁻² t₂ and the scalar C = t₂ᵀ S⁻² t₂, with Q the Gaussian's
+    /// axes in camera space (columns), S⁻² = diag(1/(σ² + 1e-7)) and t₂ the
+    /// camera centre in the Gaussian's frame. Along the camera ray
+    /// r = (x, y, 1) at view depth t the Mahalanobis form is
+    /// A t² + 2 (B·r) t + C with A = rᵀ(Q S⁻² Qᵀ)r.
+    pub v2g: [f32; 10],
+    /// Opacity × the 2-D Mip filter's coef (`conic_opacity.w`).
+    pub opacity: f32,
+    /// SH colour + 0.5, clamped at 0 (`computeColorFromSH`).
+    pub rgb: [f32; 3],
+}
+
+/// The Gaussians of one view: the kept ones in index order and their
+/// per-tile lists (indices into `gaussians`), front to back.
+pub(crate) struct Binned {
+    pub gaussians: Vec<ViewGaussian>,
+    pub lists: TileLists,
+}
+
+/// GOF's `getRect` on its pixel coordinates (pixel centres at integers):
+/// tile columns `(int)((x − r)/16)` up to, excluding, `(int)((x + r + 15)/16)`,
+/// clamped to `[0, grid]` (f32 arithmetic, truncation toward zero).
+/// Returns the inclusive rectangle, `None` when it is empty.
+fn get_rect(p: [f32; 2], r: i32, grid: [u32; 2]) -> Option<[u32; 4]> {
+    let r = r as f32;
+    let b = TILE as f32;
+    let lo = |v: f32, n: u32| ((((v - r) / b) as i32).max(0) as u32).min(n);
+    let hi = |v: f32, n: u32| ((((v + r + b - 1.0) / b) as i32).max(0) as u32).min(n);
+    let (x0, x1) = (lo(p[0], grid[0]), hi(p[0], grid[0]));
+    let (y0, y1) = (lo(p[1], grid[1]), hi(p[1], grid[1]));
+    (x0 < x1 && y0 < y1).then(|| [x0, y0, x1 - 1, y1 - 1])
+}
+
+/// Preprocesses Gaussian `i` as `preprocessCUDA` does; `None` when the
+/// kernel drops it (view z ≤ 0.2, a zero 2-D determinant, an empty tile
+/// rectangle; here also a non-finite depth, determinant or radius).
+/// Returns the Gaussian, its inclusive tile rectangle and its view depth.
+pub(crate) fn preprocess(
+    g: &Gaussians3,
+    i: usize,
+    cam: &Camera,
+    rows: &[[f64; 3]; 3],
+    kernel_size: f64,
+) -> Option<(ViewGaussian, [u32; 4], f32)> {
+    let mean = g.means[i].map(f64::from);
+    let tr = cam.translation;
+    let t: [f64; 3] = std::array::from_fn(|r| {
+        rows[r][0] * mean[0] + rows[r][1] * mean[1] + rows[r][2] * mean[2] + tr[r]
+    });
+    let depth = t[2] as f32;
+    if !depth.is_finite() || depth <= CULL_NEAR {
+        return None;
+    }
+    let s = g.scales[i].map(f64::from);
+    let q = g.rotations[i].map(f64::from);
+    let qn = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    // GOF passes `get_rotation` (F.normalize: a zero quaternion stays zero,
+    // whose matrix is the identity)
+    let m = quat_matrix(if qn > 0.0 {
+        q.map(|v| v / qn)
+    } else {
+        [0.0; 4]
+    });
+    // Q = R_view · M: the Gaussian's axes in camera space (columns)
+    let qm: [[f64; 3]; 3] = std::array::from_fn(|r| {
+        std::array::from_fn(|c| rows[r][0] * m[0][c] + rows[r][1] * m[1][c] + rows[r][2] * m[2][c])
+    });
+    // computeCov2D: EWA with the view-ray clamp at 1.3·tan(fov/2)
+    let (wd, hd) = (cam.width as f64, cam.height as f64);
+    let lim_x = 1.3 * (wd / (2.0 * cam.fx));
+    let lim_y = 1.3 * (hd / (2.0 * cam.fy));
+    let z = t[2];
+    let ux = (t[0] / z).clamp(-lim_x, lim_x);
+    let uy = (t[1] / z).clamp(-lim_y, lim_y);
+    let j0 = [cam.fx / z, 0.0, -cam.fx * ux / z];
+    let j1 = [0.0, cam.fy / z, -cam.fy * uy / z];
+    // A = J Q S (2×3), Σ' = A Aᵀ
+    let a0: [f64; 3] =
+        std::array::from_fn(|c| (j0[0] * qm[0][c] + j0[1] * qm[1][c] + j0[2] * qm[2][c]) * s[c]);
+    let a1: [f64; 3] =
+        std::array::from_fn(|c| (j1[0] * qm[0][c] + j1[1] * qm[1][c] + j1[2] * qm[2][c]) * s[c]);
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let (ca0, cb, cc0) = (dot(a0, a0), dot(a0, a1), dot(a1, a1));
+    let (ca, cc) = (ca0 + kernel_size, cc0 + kernel_size);
+    let coef = mip_coef::<f64>(ca0, cb, cc0, ca, cc);
+    let det = ca * cc - cb * cb;
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let mid = 0.5 * (ca + cc);
+    let l1 = mid + (mid * mid - det).max(0.1).sqrt();
+    let radius = (3.0 * l1.sqrt()).ceil();
+    if !radius.is_finite() || radius > i32::MAX as f64 {
+        return None;
+    }
+    // ndc2Pix of the projected mean: GOF's pixel coordinates (centres at
+    // integers), with the principal point (cx, cy) where GOF has (W/2, H/2)
+    let p_w = 1.0 / (z + 1e-7);
+    let point_image = [
+        (cam.fx * t[0] * p_w + cam.cx - 0.5) as f32,
+        (cam.fy * t[1] * p_w + cam.cy - 0.5) as f32,
+    ];
+    let grid = [
+        (cam.width as usize).div_ceil(TILE) as u32,
+        (cam.height as usize).div_ceil(TILE) as u32,
+    ];
+    let rect = get_rect(point_image, radius as i32, grid)?;
+    let n = coeff_count(g.sh_degree);
+    let rgb = sh_rgb::<f64>(
+        mean,
+        cam.center().to_array(),
+        &g.sh[i * n..(i + 1) * n],
+        g.sh_degree,
+    )
+    .map(|v| v.max(0.0) as f32);
+    let opacity = g.opacities[i] * coef as f32;
+    Some((
+        ViewGaussian {
+            v2g: view2gaussian(&qm, t, s),
+            opacity,
+            rgb,
+        },
+        rect,
+        depth,
+    ))
+}
+
+/// `computeView2Gaussian` from the camera-space axes `qm` (columns), the
+/// camera-space mean `t` and the scales `s` (see [`ViewGaussian::v2g`]).
+fn view2gaussian(qm: &[[f64; 3]; 3], t: [f64; 3], s: [f64; 3]) -> [f32; 10] {
+    // t₂ = −Qᵀ t: the camera centre in the Gaussian's frame
+    let t2: [f64; 3] =
+        std::array::from_fn(|c| -(qm[0][c] * t[0] + qm[1][c] * t[1] + qm[2][c] * t[2]));
+    let sinv = s.map(|v| 1.0 / (v * v + 1e-7));
+    let cst = t2[0] * t2[0] * sinv[0] + t2[1] * t2[1] * sinv[1] + t2[2] * t2[2] * sinv[2];
+    let sig = |i: usize, j: usize| (0..3).map(|c| qm[i][c] * sinv[c] * qm[j][c]).sum::<f64>();
+    let b = |i: usize| (0..3).map(|c| qm[i][c] * sinv[c] * t2[c]).sum::<f64>();
+    [
+        sig(0, 0),
+        sig(0, 1),
+        sig(0, 2),
+        sig(1, 1),
+        sig(1, 2),
+        sig(2, 2),
+        b(0),
+        b(1),
+        b(2),
+        cst,
+    ]
+    .map(|v| v as f32)
+}
+
+/// Preprocesses every Gaussian for `cam` and bins the kept ones to GOF's
+/// tile rectangles, each tile's list sorted by (view depth, index) as the
+/// kernel's stable radix sort of `tile | depth` keys leaves it.
+pub(crate) fn bin(g: &Gaussians3, cam: &Camera, kernel_size: f64) -> Binned {
+    g.check_lengths();
+    let rows = rotation_rows(cam);
+    let kept: Vec<(ViewGaussian, [u32; 4], f32)> = (0..g.len())
+        .into_par_iter()
+        .filter_map(|i| preprocess(g, i, cam, &rows, kernel_size))
+        .collect();
+    let lists = TileLists::build(
+        &kept,
+        |k| Some(k.1),
+        |k| k.2,
+        cam.width as usize,
+        cam.height as usize,
+    );
+    Binned {
+        gaussians: kept.into_iter().map(|k| k.0).collect(),
+        lists,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// getRect truncates toward zero and clamps: a box reaching left of the
+    /// image starts at tile 0, a right edge in [16k − 15, 16k + 1) ends
+    /// before tile k, and a box left of the image is empty.
+    #[test]
+    fn get_rect_rules() {
+        let grid = [4, 3];
+        // x − r = 10 → tile 0; x + r + 15 = 45 → (int)(2.8) = 2: tiles 0 and 1
+        assert_eq!(get_rect([20.0, 5.0], 10, grid), Some([0, 0, 1, 0]));
+        // x + r + 15 = 31.9 → (int)(1.99) = 1: only tile 0
+        assert_eq!(get_rect([10.9, 5.0], 6, grid), Some([0, 0, 0, 0]));
+        // x − r = −20 → (int)(−1.25) = −1 → 0; x + r + 15 = 14 → 0: empty
+        assert_eq!(get_rect([-10.0, 5.0], 10, grid), None);
+        // far right: clamped to the grid, keeps the last tile column
+        assert_eq!(get_rect([63.5, 5.0], 2, grid), Some([3, 0, 3, 0]));
+        assert_eq!(get_rect([80.0, 5.0], 2, grid), None);
+    }
+}
