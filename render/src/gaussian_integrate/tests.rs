@@ -347,3 +347,42 @@ fn views_combine_by_minimum() {
         assert_eq!(rgb[i], want, "point {i}");
     }
 }
+
+/// The kernel keeps contributors as u16 list positions: a contributor at
+/// position 65541 is stored as 5, so the point pass walks the (transparent)
+/// Gaussian at position 5 instead and never reaches it.
+#[test]
+fn contributor_positions_wrap_at_u16() {
+    let cam = test_camera(64, 64, 50.0);
+    let a = ([0.0, 0.0, 2.0], [0.3, 0.3, 0.3], [1.0, 0.0, 0.0, 0.0], 0.5);
+    let b = ([0.0, 0.0, 50.0], [3.0, 3.0, 3.0], [1.0, 0.0, 0.0, 0.0], 0.6);
+    let mut list = vec![a];
+    // list positions 2..=65540: α < 1/255 everywhere (o = 0.003)
+    for i in 0..65539 {
+        list.push((
+            [0.0, 0.0, 3.0 + i as f32 * 1e-5],
+            [0.05; 3],
+            [1.0, 0.0, 0.0, 0.0],
+            0.003,
+        ));
+    }
+    list.push(b); // position 65541
+    let g = gaussians(&list);
+    let p = [0.01f32, 0.01, 100.0];
+    let got = PreparedView::new(&g, &cam, &settings())
+        .integrate(&[p])
+        .alpha[0];
+    let pd = DVec3::new(0.01, 0.01, 100.0);
+    let ga = gaussians(&[a, b]);
+    let (aa, ab) = (
+        expected_alpha(&ga, 0, DVec3::ZERO, pd),
+        expected_alpha(&ga, 1, DVec3::ZERO, pd),
+    );
+    assert!((got - aa as f32).abs() < TOL, "{got} vs {aa}");
+    // without the wrap, b counts
+    let both = PreparedView::new(&ga, &cam, &settings())
+        .integrate(&[p])
+        .alpha[0];
+    let want = (1.0 - (1.0 - aa) * (1.0 - ab)) as f32;
+    assert!((both - want).abs() < TOL, "{both} vs {want}");
+}
