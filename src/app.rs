@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 
 use crate::ops::{
     bake_texture, bind_gaussians, chamfer, clean, convert, decimate, demo, export_off, info,
-    poisson, prune_triangles, refine, render, splat2points, train, tsdf_fuse,
+    poisson, prune_triangles, refine, render, splat2points, tetra_mesh, train, tsdf_fuse,
 };
 
 /// splatkit: Gaussian- and triangle-splat scenes to meshes, and back.
@@ -50,6 +50,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Fuse depth maps (rendered from a scene, or files) into a coloured mesh: 2DGS / Open3D TSDF.
     TsdfFuse(tsdf_fuse::TsdfFuseArgs),
+    /// Gaussian Opacity Fields' mesh: marching tetrahedra on the opacity field of a 3DGS scene.
+    TetraMesh(tetra_mesh::TetraMeshArgs),
     /// Bind SuGaR's flat Gaussians to a mesh's triangles, or rebind them to an edited mesh.
     BindGaussians(bind_gaussians::BindGaussiansArgs),
     /// Refine bound Gaussians and their mesh against photos (SuGaR), with held-out PSNR / SSIM.
@@ -76,6 +78,7 @@ pub fn splatkit_main() -> ! {
         Command::Render(a) => render::run(a),
         Command::Convert(a) => convert::run(a),
         Command::TsdfFuse(a) => tsdf_fuse::run(a),
+        Command::TetraMesh(a) => tetra_mesh::run(a),
         Command::Splat2points(a) => splat2points::run(a),
         Command::BindGaussians(a) => bind_gaussians::run(a),
         Command::Refine(a) => refine::run(a),
@@ -156,6 +159,13 @@ single_command!(
     render::RenderArgs,
     render::run,
     "Render Gaussians, triangle splats or a mesh to colour, depth, alpha and normal images."
+);
+single_command!(
+    tetra_mesh_main,
+    "tetra-mesh",
+    tetra_mesh::TetraMeshArgs,
+    tetra_mesh::run,
+    "Gaussian Opacity Fields' mesh: marching tetrahedra on the opacity field of a 3DGS scene."
 );
 single_command!(
     tsdf_fuse_main,

@@ -16,5 +16,6 @@ pub mod prune_triangles;
 pub mod refine;
 pub mod render;
 pub mod splat2points;
+pub mod tetra_mesh;
 pub mod train;
 pub mod tsdf_fuse;

@@ -8,13 +8,15 @@
 //!   `get_tetra_points` (box corners at ±3σ and the centres) and its
 //!   `get_frustum_mask`;
 //! - [`marching`]: marching tetrahedra with GOF's (kaolin's) tables and order;
-//! - [`refine`]: the binary search on the cut edges and GOF's edge filter.
+//! - [`refine`]: the binary search on the cut edges and GOF's edge filter;
+//! - [`extract`]: the whole extraction, stage by stage.
 //!
 //! The opacity at those points (GOF's `evaluage_alpha`, sdf = alpha − 0.5)
 //! is `splatkit_render::gaussian_integrate`.
 
 pub mod marching;
 pub mod points;
+pub mod extract;
 pub mod refine;
 
 pub use points::{DEFAULT_FAR, DEFAULT_NEAR, TetraPoints, box_points, frustum_mask, tetra_points};

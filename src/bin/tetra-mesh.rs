@@ -1,0 +1,3 @@
+fn main() {
+    splatkit::app::tetra_mesh_main()
+}
