@@ -8,7 +8,7 @@ Usage (from the repository root):
 
     python3 scripts/compare/gof_reference.py SCENE.ply CAMERAS.json -o MESH.ply \
         [--filter-mesh] [--texture-mesh] [--near 0.02] [--far 1e6] \
-        [--kernel-size 0] [--white-background] [--json OUT.json] [--sphere-radius R]
+        [--kernel-size 0] [--white-background] [--json OUT.json] [--sphere-radius R] [--cgal]
     python3 scripts/compare/gof_reference.py --make-test-scene DIR
     python3 scripts/compare/gof_reference.py --self-test
 
@@ -40,6 +40,9 @@ What it does (see docs/gof_extraction.md for the exact rules):
    Delaunay) set of cells than CGAL, may leave near-duplicates out as
    "coplanar" points, and may keep zero-volume slivers; so cell counts, face
    order and a few faces can differ from GOF while the surface agrees.
+   `--cgal` uses CGAL's own Python bindings instead (`pip install cgal`): the
+   same cells as GOF (cell and face order may still differ). On the sphere test
+   scene both give the same 69,400 cells.
 3. opacity of each point: for every view, the kernel's rules are replayed
    pixel by pixel (preprocessing, 16x16 tiles, depth order, the per-pixel pass
    with the centre ray and 4 corner rays, the 1/255 and T < 1e-4 rules, the 0.99
@@ -224,6 +227,35 @@ def tetra_points(g, cams, near, far):
         z = v[:, 2]
         keep |= (z >= near) & (z <= far) & (u >= 0) & (u <= W - 1) & (w >= 0) & (w <= H - 1)
     return pts[keep], pscale[keep]
+
+
+def triangulate_cgal(points):
+    """GOF's triangulation through CGAL's own Python bindings (`pip install cgal`):
+    Delaunay_triangulation_3 (exact predicates), every finite cell in CGAL's vertex order.
+    Cells come back as coordinates and are mapped to the first point index with them."""
+    try:
+        from CGAL.CGAL_Kernel import Point_3
+        from CGAL.CGAL_Triangulation_3 import Delaunay_triangulation_3
+    except ImportError:
+        sys.exit("--cgal needs CGAL's Python bindings: pip install cgal")
+    p64 = points.astype(np.float64)
+    dt = Delaunay_triangulation_3()
+    dt.insert([Point_3(float(x), float(y), float(z)) for x, y, z in p64])
+    if not dt.is_valid():
+        sys.exit("CGAL: triangulation failed")
+    index = {}
+    for i, q in enumerate(map(tuple, p64.tolist())):
+        index.setdefault(q, i)
+    cells = []
+    for c in dt.finite_cells():
+        row = []
+        for j in range(4):
+            q = c.vertex(j).point()
+            row.append(index[(q.x(), q.y(), q.z())])
+        cells.append(row)
+    cells = np.array(cells, np.int64).reshape(-1, 4)
+    dropped = len(points) - len(np.unique(cells))
+    return cells, 0, dropped
 
 
 def triangulate(points):
@@ -526,16 +558,16 @@ def marching_tetrahedra(cells, sdf):
     return uniq[cross], np.concatenate([f1, f2], 0)
 
 
-def extract(g, cams, near, far, kernel_size, bg, filter_mesh, texture_mesh, log=print):
+def extract(g, cams, near, far, kernel_size, bg, filter_mesh, texture_mesh, log=print, use_cgal=False):
     timings = {}
     t0 = time.perf_counter()
     points, pscale = tetra_points(g, cams, near, far)
     timings["tetra_points_s"] = time.perf_counter() - t0
     log(f"tetra points: {len(points)} of {9 * len(g['xyz'])}")
     t0 = time.perf_counter()
-    cells, flat, dropped = triangulate(points)
+    cells, flat, dropped = triangulate_cgal(points) if use_cgal else triangulate(points)
     timings["triangulation_s"] = time.perf_counter() - t0
-    log(f"cells: {len(cells)} ({flat} zero-volume, {dropped} points left out by Qhull)")
+    log(f"cells: {len(cells)} ({flat} zero-volume, {dropped} points in no cell)")
     t0 = time.perf_counter()
     rasters = [ViewRaster(g, c, kernel_size, bg) for c in cams]
     timings["pixel_pass_s"] = time.perf_counter() - t0
@@ -572,7 +604,7 @@ def extract(g, cams, near, far, kernel_size, bg, filter_mesh, texture_mesh, log=
         if colours is not None:
             colours = colours[keep]
     counts = dict(gaussians=len(g["xyz"]), points=len(points), cells=len(cells), zero_volume_cells=flat,
-                  qhull_left_out=dropped, vertices=len(verts), faces=len(faces))
+                  points_in_no_cell=dropped, triangulation="cgal" if use_cgal else "qhull", vertices=len(verts), faces=len(faces))
     return verts, faces, colours, counts, timings
 
 
@@ -791,6 +823,7 @@ def main():
     ap.add_argument("--white-background", action="store_true")
     ap.add_argument("--json")
     ap.add_argument("--sphere-radius", type=float, help="report | |v| - R | of the vertices (test scene)")
+    ap.add_argument("--cgal", action="store_true", help="cells from CGAL's Python bindings (pip install cgal), as GOF")
     ap.add_argument("--make-test-scene", metavar="DIR")
     ap.add_argument("--self-test", action="store_true", help="check the vectorised code against plain loops")
     a = ap.parse_args()
@@ -807,7 +840,7 @@ def main():
     t0 = time.perf_counter()
     verts, faces, colours, counts, timings = extract(
         g, cams, a.near, a.far, a.kernel_size, bg, a.filter_mesh, a.texture_mesh,
-        log=lambda s: print(s, file=sys.stderr))
+        log=lambda s: print(s, file=sys.stderr), use_cgal=a.cgal)
     timings["total_s"] = time.perf_counter() - t0
     write_mesh(a.output, verts, faces, colours)
     report = dict(counts=counts, topology=mesh_topology(faces, len(verts)), timings=timings,
