@@ -66,9 +66,8 @@ def main(argv):
     sphere = a.scene is None
     if sphere:
         subprocess.run([sys.executable, ref_py, "--make-test-scene", work], check=True)
-        names = os.listdir(work)
-        a.scene = os.path.join(work, next(n for n in names if n.endswith(".ply")))
-        a.cameras = os.path.join(work, next(n for n in names if n.endswith(".json")))
+        a.scene = os.path.join(work, "scene.ply")
+        a.cameras = os.path.join(work, "cameras.json")
     ref, ours = os.path.join(work, "reference.ply"), os.path.join(work, "splatkit.ply")
     cmd = [sys.executable, ref_py, a.scene, a.cameras, "-o", ref, "--json", ref + ".json"]
     if a.cgal:
