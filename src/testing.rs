@@ -297,3 +297,69 @@ pub fn surfel_sphere(n: usize, r: f64, sigma: f64, seed: u64) -> crate::model::S
     }
     s
 }
+
+/// Flat 3D Gaussians on a surface given by points and unit normals: each
+/// Gaussian's third axis is the normal (σ = `thin`), the other two tangent
+/// with σ = `sigma` and a seeded random twist; opacity 0.9, SH degree 0 with
+/// the DC colour of [`sphere_texture`] at the point's direction.
+pub fn flat_gaussians(
+    points: &[(DVec3, DVec3)],
+    sigma: f64,
+    thin: f64,
+    seed: u64,
+) -> crate::model::Gaussians {
+    use rand::RngExt;
+    let mut rng = crate::model::rng::seeded(seed);
+    let mut g = crate::model::Gaussians::default();
+    for &(p, n) in points {
+        let twist = glam::DQuat::from_rotation_z(rng.random_range(0.0..std::f64::consts::TAU));
+        let q = glam::DQuat::from_rotation_arc(DVec3::Z, n.normalize()) * twist;
+        g.means.push(p.as_vec3().to_array());
+        g.rotations
+            .push([q.w, q.x, q.y, q.z].map(|v| v as f32));
+        g.log_scales
+            .push([sigma.ln() as f32, sigma.ln() as f32, thin.ln() as f32]);
+        g.opacity_logits.push(crate::model::gaussians::logit(0.9));
+        g.sh_dc
+            .push(sphere_texture(p).map(splatkit_render::sh::rgb_to_sh));
+    }
+    g
+}
+
+/// `n` points of the sphere of radius `r` about the origin (Fibonacci
+/// lattice) with their outward normals.
+pub fn sphere_surface_points(n: usize, r: f64) -> Vec<(DVec3, DVec3)> {
+    (0..n)
+        .map(|k| {
+            let y = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let a = k as f64 * 2.399_963_229_728_653;
+            let h = (1.0 - y * y).sqrt();
+            let dir = DVec3::new(h * a.cos(), y, h * a.sin());
+            (dir * r, dir)
+        })
+        .collect()
+}
+
+/// About `n` points of the torus about the y axis (ring radius `big_r`, tube
+/// radius `small_r`), spread evenly by area (each tube circle gets points in
+/// proportion to its length), with their outward normals.
+pub fn torus_surface_points(n: usize, big_r: f64, small_r: f64) -> Vec<(DVec3, DVec3)> {
+    use std::f64::consts::TAU;
+    // rings around the tube (angle v) and points per ring ∝ (R + r cos v)
+    let area = TAU * TAU * big_r * small_r;
+    let spacing = (area / n as f64).sqrt();
+    let rings = ((TAU * small_r / spacing).round() as usize).max(3);
+    let mut out = Vec::with_capacity(n);
+    for i in 0..rings {
+        let v = TAU * (i as f64 + 0.5) / rings as f64;
+        let ring_r = big_r + small_r * v.cos();
+        let m = ((TAU * ring_r / spacing).round() as usize).max(3);
+        for j in 0..m {
+            let u = TAU * (j as f64 + 0.5 * (i % 2) as f64) / m as f64;
+            let radial = DVec3::new(u.cos(), 0.0, u.sin());
+            let normal = radial * v.cos() + DVec3::Y * v.sin();
+            out.push((radial * big_r + normal * small_r, normal));
+        }
+    }
+    out
+}
