@@ -10,12 +10,15 @@
 //!   density trimming, triangle pruning, texture baking);
 //! - [`sampling`]: point sets (surface sampling, downsampling, voxel grids,
 //!   nearest neighbours, outlier removal, distance statistics);
+//! - [`delaunay`]: 3-D Delaunay tetrahedralisation (GOF's tetrahedral
+//!   meshes);
 //! - [`binding`]: Gaussians bound to mesh triangles (SuGaR);
 //! - [`alignment`]: registration and crop volumes (Tanks and Temples);
 //! - [`scenes`]: generated scenes and camera orbits (the demo's built-in
 //!   scene, cameras for scenes that come without them).
 pub mod alignment;
 pub mod binding;
+pub mod delaunay;
 pub mod mesh_ops;
 pub mod meshing;
 pub mod sampling;
