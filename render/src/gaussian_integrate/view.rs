@@ -29,6 +29,60 @@ pub(crate) struct ViewGaussian {
     pub opacity: f32,
     /// SH colour + 0.5, clamped at 0 (`computeColorFromSH`).
     pub rgb: [f32; 3],
+    /// Not a kernel value: a box (u0, v0, u1, v1) in pixel coordinates
+    /// outside which every ray has α < 1/255 for this Gaussian (the
+    /// projection of the ellipsoid at that level, with margins), so a pixel
+    /// whose square misses it can skip the Gaussian with the same result.
+    /// Infinite where no bound is found (the ellipsoid reaches z ≤ 0).
+    pub reach: [f32; 4],
+}
+
+/// The box of [`ViewGaussian::reach`]: the image-plane extent of the
+/// ellipsoid (x − t)ᵀ(L·Σ)⁻¹(x − t) ≤ 1 around the camera-space mean `t`,
+/// L = 2·ln(255·o) (where o·exp(−m/2) ≥ 1/255) widened for the kernel's f32
+/// rounding (m is computed as a difference of terms of size `c_form`, the
+/// camera's own Mahalanobis form), plus one pixel. The extent along u is
+/// where the planes x − a·z = 0 touch the ellipsoid:
+/// a²(t_z² − M_zz) − 2a(t_x t_z − M_xz) + t_x² − M_xx = 0, M = L·Σ.
+fn reach(sigma: &[[f64; 3]; 3], t: [f64; 3], o: f64, c_form: f64, cam: &Camera) -> [f32; 4] {
+    const ALL: [f32; 4] = [
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+    ];
+    const NONE: [f32; 4] = [
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    if !(o * 255.0 >= 1.0 - 1e-4) {
+        return if o.is_nan() { ALL } else { NONE };
+    }
+    let level = (2.0 * (255.0 * o).ln()).max(0.0) * (1.0 + 1e-4) + 1e-5 * c_form.abs() + 1e-3;
+    let m = |i: usize, j: usize| level * sigma[i][j];
+    let den = t[2] * t[2] - m(2, 2);
+    if !(t[2] > 0.0 && den > 0.0) {
+        return ALL;
+    }
+    let span = |k: usize, f: f64, c: f64| -> Option<(f64, f64)> {
+        let b = t[k] * t[2] - m(k, 2);
+        let disc = b * b - den * (t[k] * t[k] - m(k, k));
+        if !(disc >= 0.0) {
+            return None;
+        }
+        let r = disc.sqrt();
+        Some((f * (b - r) / den + c - 1.0, f * (b + r) / den + c + 1.0))
+    };
+    match (span(0, cam.fx, cam.cx), span(1, cam.fy, cam.cy)) {
+        (Some((u0, u1)), Some((v0, v1)))
+            if u0.is_finite() && u1.is_finite() && v0.is_finite() && v1.is_finite() =>
+        {
+            [u0 as f32, v0 as f32, u1 as f32, v1 as f32]
+        }
+        _ => ALL,
+    }
 }
 
 /// The Gaussians of one view: the kept ones in index order and their
@@ -135,11 +189,18 @@ pub(crate) fn preprocess(
     )
     .map(|v| v.max(0.0) as f32);
     let opacity = g.opacities[i] * coef as f32;
+    let v2g = view2gaussian(&qm, t, s);
+    // camera-space covariance with the kernel's σ² + 1e-7
+    let var = s.map(|v| v * v + 1e-7);
+    let sigma: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|b| (0..3).map(|c| qm[a][c] * var[c] * qm[b][c]).sum())
+    });
     Some((
         ViewGaussian {
-            v2g: view2gaussian(&qm, t, s),
+            v2g,
             opacity,
             rgb,
+            reach: reach(&sigma, t, opacity as f64, v2g[9] as f64, cam),
         },
         rect,
         depth,
