@@ -315,8 +315,7 @@ pub fn flat_gaussians(
         let twist = glam::DQuat::from_rotation_z(rng.random_range(0.0..std::f64::consts::TAU));
         let q = glam::DQuat::from_rotation_arc(DVec3::Z, n.normalize()) * twist;
         g.means.push(p.as_vec3().to_array());
-        g.rotations
-            .push([q.w, q.x, q.y, q.z].map(|v| v as f32));
+        g.rotations.push([q.w, q.x, q.y, q.z].map(|v| v as f32));
         g.log_scales
             .push([sigma.ln() as f32, sigma.ln() as f32, thin.ln() as f32]);
         g.opacity_logits.push(crate::model::gaussians::logit(0.9));

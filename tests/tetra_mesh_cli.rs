@@ -17,7 +17,13 @@ use splatkit::testing::{
 };
 
 /// The scene's Gaussian PLY and a cameras.json of `n` views all around.
-fn scene(dir: &Path, points: &[(DVec3, DVec3)], sigma: f64, thin: f64, views: usize) -> (PathBuf, PathBuf) {
+fn scene(
+    dir: &Path,
+    points: &[(DVec3, DVec3)],
+    sigma: f64,
+    thin: f64,
+    views: usize,
+) -> (PathBuf, PathBuf) {
     let ply = dir.join("scene.ply");
     save_gaussians(&ply, &flat_gaussians(points, sigma, thin, 3)).unwrap();
     let cams = dir.join("cameras.json");
@@ -27,14 +33,7 @@ fn scene(dir: &Path, points: &[(DVec3, DVec3)], sigma: f64, thin: f64, views: us
 
 fn tetra_mesh(ply: &Path, cams: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
     let json = out.with_extension("json");
-    let mut args = vec![
-        s(ply),
-        "--cameras",
-        s(cams),
-        "-o",
-        s(out),
-        "-q",
-    ];
+    let mut args = vec![s(ply), "--cameras", s(cams), "-o", s(out), "-q"];
     let j = format!("--json={}", s(&json));
     args.push(&j);
     args.extend_from_slice(extra);
@@ -53,7 +52,11 @@ fn closed_volume(m: &Mesh) -> f64 {
     }
     for (&(a, b), &n) in &directed {
         assert_eq!(n, 1, "edge {a}->{b} in {n} faces of one direction");
-        assert_eq!(directed.get(&(b, a)), Some(&1), "edge {a}-{b} is on a boundary");
+        assert_eq!(
+            directed.get(&(b, a)),
+            Some(&1),
+            "edge {a}-{b} is on a boundary"
+        );
     }
     m.faces
         .iter()
@@ -73,7 +76,13 @@ fn closed_volume(m: &Mesh) -> f64 {
 #[test]
 fn sphere_of_flat_gaussians() {
     let dir = tempfile::tempdir().unwrap();
-    let (ply, cams) = scene(dir.path(), &sphere_surface_points(2000, 1.0), 0.05, 0.001, 12);
+    let (ply, cams) = scene(
+        dir.path(),
+        &sphere_surface_points(2000, 1.0),
+        0.05,
+        0.001,
+        12,
+    );
     let out = dir.path().join("mesh.ply");
     let r = tetra_mesh(&ply, &cams, &out, &[]);
     let m = load_mesh(&out, "test").unwrap();
@@ -103,7 +112,20 @@ fn sphere_of_flat_gaussians() {
     let fused = dir.path().join("fused.ply");
     succeeds(&run(
         "tsdf-fuse",
-        &[s(&ply), "--cameras", s(&cams), "--voxel", "0.02", "--sdf-trunc", "0.08", "--depth-trunc", "10", "-q", "-o", s(&fused)],
+        &[
+            s(&ply),
+            "--cameras",
+            s(&cams),
+            "--voxel",
+            "0.02",
+            "--sdf-trunc",
+            "0.08",
+            "--depth-trunc",
+            "10",
+            "-q",
+            "-o",
+            s(&fused),
+        ],
         None,
     ));
     let o = run("chamfer", &[s(&out), s(&fused), "--json", "-q"], None);
@@ -121,7 +143,13 @@ fn sphere_of_flat_gaussians() {
 fn torus_of_flat_gaussians() {
     let dir = tempfile::tempdir().unwrap();
     let (big, small) = (1.0, 0.35);
-    let (ply, cams) = scene(dir.path(), &torus_surface_points(3000, big, small), 0.04, 0.0005, 16);
+    let (ply, cams) = scene(
+        dir.path(),
+        &torus_surface_points(3000, big, small),
+        0.04,
+        0.0005,
+        16,
+    );
     let out = dir.path().join("mesh.ply");
     tetra_mesh(&ply, &cams, &out, &["--no-color"]);
     let m = load_mesh(&out, "test").unwrap();
@@ -151,7 +179,19 @@ fn errors_are_clear() {
     let dir = tempfile::tempdir().unwrap();
     let (ply, cams) = scene(dir.path(), &sphere_surface_points(200, 1.0), 0.1, 0.001, 4);
     let out = dir.path().join("out.ply");
-    let o = run("tetra-mesh", &[s(&ply), "--cameras", s(&cams), "--level", "1.5", "-o", s(&out)], None);
+    let o = run(
+        "tetra-mesh",
+        &[
+            s(&ply),
+            "--cameras",
+            s(&cams),
+            "--level",
+            "1.5",
+            "-o",
+            s(&out),
+        ],
+        None,
+    );
     fails(&o, 2, &["--level"]);
     // cameras looking away: every point is outside every view
     let away = dir.path().join("away.json");
@@ -165,7 +205,11 @@ fn errors_are_clear() {
         cam.translation = t;
     }
     splatkit::io::cameras::write_gs_json(&away, &c).unwrap();
-    let o = run("tetra-mesh", &[s(&ply), "--cameras", s(&away), "-o", s(&out)], None);
+    let o = run(
+        "tetra-mesh",
+        &[s(&ply), "--cameras", s(&away), "-o", s(&out)],
+        None,
+    );
     fails(&o, 1, &["tetra points", "scene.ply"]);
     assert!(!out.exists());
     // a mesh is not a splat scene
@@ -177,7 +221,11 @@ fn errors_are_clear() {
         &Default::default(),
     )
     .unwrap();
-    let o = run("tetra-mesh", &[s(&mesh), "--cameras", s(&cams), "-o", s(&out)], None);
+    let o = run(
+        "tetra-mesh",
+        &[s(&mesh), "--cameras", s(&cams), "-o", s(&out)],
+        None,
+    );
     fails(&o, 1, &["m.ply"]);
     assert!(!out.exists());
 }

@@ -10,6 +10,7 @@ use clap::Args;
 use serde_json::json;
 
 use crate::cli::{Common, nonneg_f64, shown, usage};
+use crate::geom::delaunay::estimated_bytes;
 use crate::geom::meshing::tetra::extract::{Stage, TetraOptions, TetraReport, extract};
 use crate::io::any::{MeshWriteOptions, load_kinds, output_format, save_mesh};
 use crate::io::budget;
@@ -104,11 +105,10 @@ fn open_unit_f32(s: &str) -> Result<f32, String> {
     }
 }
 
-/// Bytes per tetra point the extraction holds at its peak, beyond the
-/// views: the point (12) and scale (4) and value (4), f64 copy for the
-/// tetrahedralisation (24), about 6.5 tetrahedra of 4 indices plus its
-/// working structure (≈ 6.5 × 48), and the cut's edges and search state.
-const BYTES_PER_POINT: u64 = 12 + 4 + 4 + 24 + 312 + 64;
+/// Bytes per tetra point the extraction holds beside the
+/// tetrahedralisation's own ([`estimated_bytes`]): the point (12), scale (4)
+/// and value (4), the f64 copy (24), and the cut's edges and search state.
+const BYTES_PER_POINT: u64 = 12 + 4 + 4 + 24 + 64;
 
 /// Runs `tetra-mesh`.
 pub fn run(args: TetraMeshArgs) -> anyhow::Result<()> {
@@ -128,9 +128,11 @@ pub fn run(args: TetraMeshArgs) -> anyhow::Result<()> {
     } else {
         (args.scene.clone(), None)
     };
-    let cam_path = args.cameras.clone().or(cam_path).ok_or_else(|| {
-        usage("give --cameras, or a model folder holding cameras.json")
-    })?;
+    let cam_path = args
+        .cameras
+        .clone()
+        .or(cam_path)
+        .ok_or_else(|| usage("give --cameras, or a model folder holding cameras.json"))?;
     let g = load_gaussians(&scene)?;
     let cams = cameras(&args, &cam_path)?;
     // Memory: 9 points per Gaussian at most, and the kept views.
@@ -140,7 +142,9 @@ pub fn run(args: TetraMeshArgs) -> anyhow::Result<()> {
             "{}: the tetrahedralisation of up to {n_points} points",
             shown(&scene, false)
         ),
-        n_points.saturating_mul(BYTES_PER_POINT),
+        n_points
+            .saturating_mul(BYTES_PER_POINT)
+            .saturating_add(estimated_bytes(n_points as usize)),
     )?;
     let opts = TetraOptions {
         level: args.level,
@@ -150,10 +154,15 @@ pub fn run(args: TetraMeshArgs) -> anyhow::Result<()> {
         filter: args.filter_mesh,
         colors: !args.no_color,
         integrate: IntegrateSettings {
-            background: if args.white_background { [1.0; 3] } else { [0.0; 3] },
+            background: if args.white_background {
+                [1.0; 3]
+            } else {
+                [0.0; 3]
+            },
             kernel_size: args.kernel_size as f32,
         },
         keep_views: !args.low_memory && views_fit(&g, &cams),
+        max_bytes: budget::usable_bytes(),
     };
     let pb = args
         .common

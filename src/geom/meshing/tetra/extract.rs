@@ -19,7 +19,7 @@ use super::marching::march;
 use super::points::tetra_points;
 use super::refine::{bisect_edges, cut_mesh};
 use crate::Result;
-use crate::geom::delaunay::tetrahedralize;
+use crate::geom::delaunay::tetrahedralize_within;
 use crate::model::Mesh;
 
 /// Options of [`extract`]; `Default` gives GOF's.
@@ -43,6 +43,8 @@ pub struct TetraOptions {
     /// memory grows with the number of views). Off: each evaluation prepares
     /// one view at a time.
     pub keep_views: bool,
+    /// Memory limit of the tetrahedralisation, bytes (the caller's budget).
+    pub max_bytes: u64,
 }
 
 impl Default for TetraOptions {
@@ -56,6 +58,7 @@ impl Default for TetraOptions {
             colors: true,
             integrate: IntegrateSettings::default(),
             keep_views: true,
+            max_bytes: u64::MAX,
         }
     }
 }
@@ -98,7 +101,9 @@ pub fn extract(
     mut progress: impl FnMut(Stage),
 ) -> Result<(Mesh, TetraReport)> {
     if cams.is_empty() {
-        return Err(crate::Error::invalid("tetra-mesh needs at least one camera"));
+        return Err(crate::Error::invalid(
+            "tetra-mesh needs at least one camera",
+        ));
     }
     let mut report = TetraReport {
         gaussians: g.len(),
@@ -119,14 +124,22 @@ pub fn extract(
     let t = Instant::now();
     progress(Stage::Delaunay);
     let p64: Vec<[f64; 3]> = tp.points.iter().map(|p| p.map(f64::from)).collect();
-    let tets = tetrahedralize(&p64)?;
+    // geom::delaunay's tets have robust::orient3d > 0, i.e. a negative
+    // signed volume; marching tetrahedra wants CGAL's positive ones (its
+    // triangles then face free space): swap the first two corners.
+    let tets: Vec<[u32; 4]> = tetrahedralize_within(&p64, opts.max_bytes)?
+        .into_iter()
+        .map(|[a, b, c, d]| [b, a, c, d])
+        .collect();
     drop(p64);
     report.tetrahedra = tets.len();
     report.seconds_delaunay = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
     progress(Stage::Field);
-    let kept = opts.keep_views.then(|| OpacityField::new(g, cams, &opts.integrate));
+    let kept = opts
+        .keep_views
+        .then(|| OpacityField::new(g, cams, &opts.integrate));
     let eval = |pts: &[[f32; 3]]| -> (Vec<f32>, Vec<[f32; 3]>) {
         match &kept {
             Some(f) => f.evaluate(pts),

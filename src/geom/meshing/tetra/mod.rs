@@ -14,9 +14,9 @@
 //! The opacity at those points (GOF's `evaluage_alpha`, sdf = alpha − 0.5)
 //! is `splatkit_render::gaussian_integrate`.
 
+pub mod extract;
 pub mod marching;
 pub mod points;
-pub mod extract;
 pub mod refine;
 
 pub use points::{DEFAULT_FAR, DEFAULT_NEAR, TetraPoints, box_points, frustum_mask, tetra_points};
