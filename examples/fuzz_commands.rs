@@ -100,6 +100,7 @@ const COMMANDS: &[&str] = &[
     "splat2points",
     "render",
     "tsdf-fuse",
+    "tetra-mesh",
     "bind-gaussians",
     "refine",
     "bake-texture",
@@ -729,6 +730,27 @@ fn build_case(cmd: &str, b: &mut Builder) {
             if b.chance(0.1) {
                 b.set_input("--masks", "masks");
             }
+            b.json();
+        }
+        "tetra-mesh" => {
+            b.pos("tetra-mesh");
+            let s = b.pick(&["point_cloud.ply", "mesh.ply", "bound.ply"]);
+            b.positional_input(s, false);
+            b.set_input("--cameras", "cams.json");
+            b.output("-o", "out.ply", Kind::File, &[], &[]);
+            b.random_flags(&[
+                ("--level", &["0.5", "0.1"]),
+                ("--iterations", &["8", "0"]),
+                ("--cameras-subset", &["1", "2"]),
+                ("--filter-mesh", &[]),
+                ("--no-color", &[]),
+                ("--near", &["0.02", "0"]),
+                ("--far", &["100", "1e6"]),
+                ("--kernel-size", &["0", "0.1"]),
+                ("--white-background", &[]),
+                ("--every-nth-test", &["0", "8"]),
+                ("--low-memory", &[]),
+            ]);
             b.json();
         }
         "bind-gaussians" => {
