@@ -246,7 +246,8 @@ impl PreparedView {
                 let min_value = -((bb / aa) as f64) * (bb as f64 / 4.0) + v[9] as f64;
                 let power = ((-0.5 * min_value) as f32).min(0.0);
                 let alpha = (g.opacity * power.exp()).min(0.99);
-                if !(alpha >= 1.0 / 255.0) {
+                // (f32::min never returns NaN, as CUDA's fminf)
+                if alpha < 1.0 / 255.0 {
                     continue;
                 }
                 let test_t = ts[k] * (1.0 - alpha);

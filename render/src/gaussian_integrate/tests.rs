@@ -30,7 +30,10 @@ fn tol(g: &Gaussians3, c: DVec3) -> f32 {
     (0.5 * 16.0 * f32::EPSILON as f64 * worst).max(TOL as f64) as f32
 }
 
-fn gaussians(list: &[([f32; 3], [f32; 3], [f32; 4], f32)]) -> Gaussians3 {
+/// One Gaussian: mean, σ, quaternion (w, x, y, z), opacity.
+type G = ([f32; 3], [f32; 3], [f32; 4], f32);
+
+fn gaussians(list: &[G]) -> Gaussians3 {
     Gaussians3 {
         means: list.iter().map(|g| g.0).collect(),
         scales: list.iter().map(|g| g.1).collect(),

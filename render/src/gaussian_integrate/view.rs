@@ -57,8 +57,11 @@ fn reach(sigma: &[[f64; 3]; 3], t: [f64; 3], o: f64, c_form: f64, cam: &Camera) 
         f32::NEG_INFINITY,
         f32::NEG_INFINITY,
     ];
-    if !(o * 255.0 >= 1.0 - 1e-4) {
-        return if o.is_nan() { ALL } else { NONE };
+    if o.is_nan() {
+        return ALL;
+    }
+    if o * 255.0 < 1.0 - 1e-4 {
+        return NONE;
     }
     let level = (2.0 * (255.0 * o).ln()).max(0.0) * (1.0 + 1e-4) + 1e-5 * c_form.abs() + 1e-3;
     let m = |i: usize, j: usize| level * sigma[i][j];
@@ -69,7 +72,7 @@ fn reach(sigma: &[[f64; 3]; 3], t: [f64; 3], o: f64, c_form: f64, cam: &Camera) 
     let span = |k: usize, f: f64, c: f64| -> Option<(f64, f64)> {
         let b = t[k] * t[2] - m(k, 2);
         let disc = b * b - den * (t[k] * t[k] - m(k, k));
-        if !(disc >= 0.0) {
+        if disc.is_nan() || disc < 0.0 {
             return None;
         }
         let r = disc.sqrt();

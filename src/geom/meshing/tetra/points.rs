@@ -223,7 +223,7 @@ mod tests {
             [4.95, 0.0, 5.0], // u = 99.999998: kept
             [-4.9, 0.0, 5.0], // u = 1.5: kept
         ];
-        let mask = frustum_mask(&pts, &[cam.clone()], DEFAULT_NEAR, DEFAULT_FAR);
+        let mask = frustum_mask(&pts, std::slice::from_ref(&cam), DEFAULT_NEAR, DEFAULT_FAR);
         assert_eq!(
             mask,
             vec![true, false, false, false, true, false, true, true]
