@@ -3,66 +3,72 @@
 //! combination over views of its `extract_mesh.py` (`evaluage_alpha`).
 //!
 //! Inputs: [`Gaussians3`] with activated values (σ scales, opacities in
-//! [0, 1], quaternions (w, x, y, z), normalised here as GOF's
-//! `get_rotation`), taken to be the 3-D-filtered values GOF passes
+//! [0, 1], quaternions (w, x, y, z), normalised here as GOF's `get_rotation`),
+//! taken to be the 3-D-filtered values GOF passes
 //! (`get_scaling_with_3D_filter`, `get_opacity_with_3D_filter`); pinhole
 //! [`Camera`]s (OpenCV axes, pixel centres at integer + 0.5); world points.
 //!
 //! Per view, the rules of GOF's kernels (line numbers: `forward.cu`,
 //! `auxiliary.h`, `rasterizer_impl.cu` of its `diff-gaussian-rasterization`):
 //! - Gaussians (`preprocessCUDA`, 284–404): culled at view z ≤ 0.2
-//!   (`in_frustum`); 2-D covariance by EWA with the 1.3·tan(fov/2) clamp, the
-//!   2-D Mip filter `kernel_size` k (GOF's default 0) and its opacity coef
-//!   (`computeCov2D`, 75–125); dropped when det = 0; radius
-//!   ⌈3·√λ_max⌉ with λ from max(0.1, mid² − det); tiles by `getRect` on the
-//!   `ndc2Pix` centre (pixel centres at integers); colour from SH at the
-//!   camera centre, + 0.5, clamped at 0; the ten `computeView2Gaussian`
-//!   values (171–281). Tile lists sorted by (depth, index) (stable radix sort
-//!   of `tile | depth` keys, `duplicateWithKeys`).
-//! - Points (`preprocessPointsCUDA`, 723–766): culled at view z ≤ 0.2;
-//!   pixel coordinates x = fx·X/(Z + 1e-7) + W/2 (no −0.5), dropped unless
-//!   0 ≤ x < W and 0 ≤ y < H; binned to tile ⌊x/16⌋ (`createWithKeys`) and
-//!   taken by the pixel whose [i, i + 1) × [j, j + 1) holds them (the
-//!   half-open test against `pixf ± 0.5`, 1036–1037): pixel (⌊x⌋, ⌊y⌋).
-//! - Pixel pass (842–985): five rays through (i + 0.5 + dx, j + 0.5 + dy),
-//!   (dx, dy) ∈ {(0, 0), (±0.5, ±0.5)}, direction ((u − W/2)/fx,
-//!   (v − H/2)/fy, 1); per Gaussian in list order and per ray: t = −B/(2A)
-//!   skipped if ≤ 0.2; power = −½(C − B²/(4A)) capped at 0; α = min(0.99,
-//!   o·exp(power)), skipped below 1/255; skipped if T·(1 − α) < 1e-4 (no early
-//!   exit); otherwise T ← T(1 − α) for that ray. A Gaussian any ray used is a
-//!   contributor; at 4·256 contributors the pixel stops. The pixel's colour
-//!   is Σ c α T of the centre ray + T·background.
-//! - Point pass (1116–1188): each point of the pixel walks the pixel's
-//!   contributors (`contributed_ids`, kept as u16 list positions as the
-//!   kernel does) with its own ray through its (x, y), t = −B/(2A) clamped
-//!   at the point's view depth, power = −½(A t² + B t + C) (no cap), α as
-//!   above, skipped below 1/255 (no T test): alpha_integrated = Σ α T.
-//!   The point's colour is the pixel's colour.
+//!   (`in_frustum`, `auxiliary.h` 192); 2-D covariance by EWA with the
+//!   1.3·tan(fov/2) clamp, the 2-D Mip filter `kernel_size` k (GOF's default
+//!   0) and its opacity coef (`computeCov2D`, 74–124); dropped when det = 0;
+//!   radius ⌈3·√λ_max⌉ with λ from max(0.1, mid² − det); tiles by `getRect`
+//!   on the `ndc2Pix` centre (pixel centres at integers); colour from SH at
+//!   the camera centre, + 0.5, clamped at 0; the ten `computeView2Gaussian`
+//!   values (168–279); `getRect` and `ndc2Pix`: `auxiliary.h` 59–75. Tile
+//!   lists sorted by (depth, index) (stable radix sort of `tile | depth`
+//!   keys, `duplicateWithKeys`).
+//! - Points (`preprocessPointsCUDA`, 723–766, pixel coordinates 756): culled
+//!   at view z ≤ 0.2; pixel coordinates x = fx·X/(Z + 1e-7) + W/2 (no −0.5),
+//!   dropped unless 0 ≤ x < W and 0 ≤ y < H; binned to tile ⌊x/16⌋
+//!   (`createWithKeys`, `rasterizer_impl.cu` 135) and taken by the pixel
+//!   whose [i, i + 1) × [j, j + 1) holds them (the half-open test against
+//!   `pixf ± 0.5`, 1071–1072): pixel (⌊x⌋, ⌊y⌋).
+//! - Pixel pass (838–993, rays 919–980, contributor list 983–990): five rays
+//!   through (i + 0.5 + dx, j + 0.5 + dy), (dx, dy) ∈ {(0, 0), (±0.5, ±0.5)},
+//!   direction ((u − W/2)/fx, (v − H/2)/fy, 1); per Gaussian in list order
+//!   and per ray: t = −B/(2A) skipped if ≤ 0.2; power = −½(C − B²/(4A))
+//!   capped at 0; α = min(0.99, o·exp(power)), skipped below 1/255; skipped
+//!   if T·(1 − α) < 1e-4 (no early exit); otherwise T ← T(1 − α) for that
+//!   ray. A Gaussian any ray used is a contributor; at 4·256 contributors the
+//!   pixel stops. The pixel's colour is Σ c α T of the centre ray +
+//!   T·background.
+//! - Point pass (1130–1196, t clamp 1172–1175, output 1205): each point of
+//!   the pixel walks the pixel's contributors (`contributed_ids`, kept as u16
+//!   list positions as the kernel does) with its own ray through its (x, y),
+//!   t = −B/(2A) clamped at the point's view depth, power = −½(A t² + B t +
+//!   C) (no cap), α as above, skipped below 1/255 (no T test):
+//!   alpha_integrated = Σ α T. The point's colour is the pixel's colour.
 //! - Points no pixel takes keep the output's initial value
-//!   (`IntegrateGaussiansToPointsCUDA`: alpha_integrated 1, colour 0).
+//!   (`IntegrateGaussiansToPointsCUDA` in `rasterize_points.cu`:
+//!   alpha_integrated 1, colour 0).
 //!
 //! Departures, each documented where it happens:
-//! - the principal point is the camera's (cx, cy) wherever GOF uses
-//!   (W/2, H/2) (rays, point pixels, `ndc2Pix`); GOF's cameras always have
-//!   it at the centre, where the two agree;
+//! - the principal point is the camera's (cx, cy) wherever GOF uses (W/2,
+//!   H/2) (rays, point pixels, `ndc2Pix`); GOF's cameras always have it at
+//!   the centre, where the two agree;
 //! - the per-Gaussian preprocessing is evaluated in f64 and rounded to f32
-//!   (GOF: f32 with a few f64 steps), so ties at tile or pixel boundaries
-//!   can fall differently by one rounding; the per-ray and per-point
-//!   arithmetic follows the kernel's f32 / f64 operations;
+//!   (GOF: f32 with a few f64 steps), so ties at tile or pixel boundaries can
+//!   fall differently by one rounding; the per-ray and per-point arithmetic
+//!   follows the kernel's f32 / f64 operations;
 //! - non-finite Gaussian depths, determinants or radii, and points with a
 //!   non-finite pixel or depth, are dropped (the kernel's result there is
-//!   undefined);
-//! - the kernel's `MAX_NUM_PROJECTED` chunking of a pixel's points changes
-//!   no value and is not reproduced.
+//!   undefined), and a NaN ray parameter t skips the ray in the pixel pass
+//!   (the kernel would blend α = 0.99 there, as `fminf` drops the NaN);
+//! - the kernel's `MAX_NUM_PROJECTED` chunking of a pixel's points changes no
+//!   value and is not reproduced.
 //!
-//! Speed-up that changes no value: in the pixel pass, a Gaussian whose
-//! α ≥ 1/255 region (the image of its ellipsoid at that level, widened for
-//! f32 rounding and by a pixel) misses the pixel's square is skipped without
-//! evaluating its five rays (it still counts as a list position).
+//! Speed-up that changes no value: in the pixel pass, a Gaussian whose α ≥
+//! 1/255 region (the image of its ellipsoid at that level, widened for f32
+//! rounding and by a pixel) misses the pixel's square is skipped without
+//! evaluating its five rays (it still counts as a list position). The
+//! margins are chosen to cover the kernel's f32 rounding; the test
+//! `reach_skip_is_exact` checks bit-equal results on random scenes.
 //!
-//! Parallel over the pixels that hold points; each point's value is
-//! computed by one sequential loop, so results do not depend on the thread
-//! count.
+//! Parallel over the pixels that hold points; each point's value is computed
+//! by one sequential loop, so results do not depend on the thread count.
 
 mod view;
 
