@@ -406,3 +406,52 @@ fn contributor_positions_wrap_at_u16() {
     let want = (1.0 - (1.0 - aa) * (1.0 - ab)) as f32;
     assert!((both - want).abs() < TOL, "{both} vs {want}");
 }
+
+/// A closed shell of opaque Gaussians seen from six sides: inside, every
+/// view's ray crosses the shell (one layer, accumulated opacity ≈ 0.85 with
+/// its gaps), so GOF's alpha (1 − the minimum) is well below 0.5 (sdf < 0);
+/// outside, some view sees the point through free space and alpha is near
+/// 1 (sdf > 0).
+#[test]
+fn shell_inside_and_outside() {
+    let mut g = Gaussians3::default();
+    // Fibonacci sphere of radius 1, spacing ≈ 0.06, σ = 0.05
+    let n = 1200;
+    for i in 0..n {
+        let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let r = (1.0 - y * y).sqrt();
+        let phi = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        g.means
+            .push([(r * phi.cos()) as f32, y as f32, (r * phi.sin()) as f32]);
+        g.scales.push([0.05; 3]);
+        g.rotations.push([1.0, 0.0, 0.0, 0.0]);
+        g.opacities.push(0.95);
+        g.sh.push([0.0; 3]);
+    }
+    let cams: Vec<Camera> = [
+        DVec3::X,
+        -DVec3::X,
+        DVec3::Y,
+        -DVec3::Y,
+        DVec3::Z,
+        -DVec3::Z,
+    ]
+    .iter()
+    .map(|&d| {
+        let center = d * 4.0;
+        let fwd = -d;
+        let up = if d.y.abs() > 0.5 { DVec3::Z } else { DVec3::Y };
+        let right = fwd.cross(up).normalize();
+        let down = fwd.cross(right);
+        let (r, t) = Camera::pose_from_c2w(DMat3::from_cols(right, down, fwd), center);
+        Camera::pinhole("c", 96, 96, 80.0, 80.0, 48.0, 48.0, r, t)
+    })
+    .collect();
+    let field = OpacityField::new(&g, &cams, &settings());
+    let inside = [[0.0f32, 0.0, 0.0], [0.3, -0.2, 0.1], [0.0, 0.5, -0.4]];
+    let outside = [[1.5f32, 0.0, 0.0], [0.0, -1.6, 0.3], [1.0, 1.0, 1.0]];
+    let (a_in, _) = field.evaluate(&inside);
+    let (a_out, _) = field.evaluate(&outside);
+    assert!(a_in.iter().all(|&a| a < 0.3), "{a_in:?}");
+    assert!(a_out.iter().all(|&a| a > 0.9), "{a_out:?}");
+}
