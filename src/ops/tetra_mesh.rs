@@ -218,11 +218,11 @@ fn cameras(args: &TetraMeshArgs, path: &Path) -> anyhow::Result<Vec<Camera>> {
     let all = read_cameras(path).with_context(|| format!("reading cameras {}", path.display()))?;
     let mut cams = training_views(all, args.every_nth_test);
     cams.sort_by(|a, b| a.name.cmp(&b.name));
-    if let Some(n) = args.cameras_subset {
-        if n < cams.len() {
-            let m = cams.len();
-            cams = (0..n).map(|k| cams[k * m / n].clone()).collect();
-        }
+    if let Some(n) = args.cameras_subset
+        && n < cams.len()
+    {
+        let m = cams.len();
+        cams = (0..n).map(|k| cams[k * m / n].clone()).collect();
     }
     if cams.is_empty() {
         bail!("{}: no cameras left", path.display());

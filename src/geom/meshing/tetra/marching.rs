@@ -148,12 +148,12 @@ mod tests {
             [0.0, 1.0, 0.0],
             [0.0, 0.0, 1.0],
         ];
-        for c in 0..16usize {
+        for (c, &count) in COUNT.iter().enumerate() {
             let values: Vec<f32> = (0..4)
                 .map(|i| if c >> i & 1 == 1 { 1.0 } else { -1.0 })
                 .collect();
             let cut = march(&[[0, 1, 2, 3]], &values);
-            assert_eq!(cut.faces.len(), COUNT[c] as usize, "case {c}");
+            assert_eq!(cut.faces.len(), count as usize, "case {c}");
             let n_occ = c.count_ones() as usize;
             assert_eq!(cut.edges.len(), n_occ * (4 - n_occ), "case {c}");
             let mid = |e: [u32; 2]| {
