@@ -11,6 +11,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 pub mod filter2d;
 pub mod memory;
+pub mod model_folder;
 pub mod orbit;
 
 pub use crate::io::source::shown;

@@ -9,6 +9,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde_json::json;
 
+use crate::cli::model_folder::{resolve_model_folder, training_views};
 use crate::cli::{Common, nonneg_f64, shown, usage};
 use crate::geom::delaunay::estimated_bytes;
 use crate::geom::meshing::tetra::extract::{Stage, TetraOptions, TetraReport, extract};
@@ -17,7 +18,6 @@ use crate::io::budget;
 use crate::io::cameras::read_cameras;
 use crate::io::detect::FileFormat;
 use crate::model::{Camera, Scene, SceneKind};
-use crate::ops::splat2points::{resolve_model_folder, training_views};
 use splatkit_render::gaussian::Gaussians3;
 use splatkit_render::gaussian_integrate::IntegrateSettings;
 
