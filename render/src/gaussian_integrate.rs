@@ -63,13 +63,16 @@
 //! Speed-up that changes no value: in the pixel pass, a Gaussian whose α ≥
 //! 1/255 region (the image of its ellipsoid at that level, widened for f32
 //! rounding and by a pixel) misses the pixel's square is skipped without
-//! evaluating its five rays (it still counts as a list position). The
+//! evaluating its rays (it still counts as a list position). The corner rays
+//! a pixel shares with its neighbours are evaluated once per tile (see
+//! `pixel`). The
 //! margins are chosen to cover the kernel's f32 rounding; the test
 //! `reach_skip_is_exact` checks bit-equal results on random scenes.
 //!
 //! Parallel over the pixels that hold points; each point's value is computed
 //! by one sequential loop, so results do not depend on the thread count.
 
+mod pixel;
 mod view;
 
 use rayon::prelude::*;
@@ -88,6 +91,7 @@ pub const MAX_CONTRIBUTORS: usize = 256 * 4;
 pub const RAY_NEAR: f64 = 0.2;
 
 /// Sub-pixel offsets of the five pixel-pass rays (centre, then corners).
+#[cfg(test)]
 const OFFSETS: [(f32, f32); 5] = [
     (0.0, 0.0),
     (-0.5, -0.5),
@@ -220,81 +224,21 @@ impl PreparedView {
         ]
     }
 
-    /// The pixel pass of pixel (i, j): the Gaussians (indices into the
-    /// kept list) the point pass walks, in order, and the pixel's colour.
+    /// The pixel pass of pixel (i, j) alone: the Gaussians (indices into the
+    /// kept list) the point pass walks, in order, and the pixel's colour
+    /// (the reference [`pixel::tile_pass`] is tested against).
+    #[cfg(test)]
     fn pixel_pass(&self, i: usize, j: usize) -> (Vec<u32>, [f32; 3]) {
         let tile = (j / TILE) * self.tiles_x + i / TILE;
         let list = self.binned.lists.list(tile);
         let (pxf, pyf) = (i as f32 + 0.5, j as f32 + 0.5);
-        let (lo_x, hi_x, lo_y, hi_y) = (i as f32, i as f32 + 1.0, j as f32, j as f32 + 1.0);
         let rays: [[f32; 2]; 5] = OFFSETS.map(|(dx, dy)| self.ray(pxf + dx, pyf + dy));
-        let mut ts = [1.0f32; 5];
-        let mut c = [0.0f32; 3];
-        let mut contributor = 0u32;
-        let mut last = 0u32;
-        let mut ids: Vec<u16> = Vec::new();
+        let mut s = pixel::PixelState::new();
         for &gi in list {
-            contributor += 1;
             let g = &self.binned.gaussians[gi as usize];
-            let b = &g.reach;
-            // every ray of this pixel has α < 1/255 here: nothing changes
-            if self.use_reach && (b[2] < lo_x || b[0] > hi_x || b[3] < lo_y || b[1] > hi_y) {
-                continue;
-            }
-            let v = &g.v2g;
-            let mut used = false;
-            for (k, r) in rays.iter().enumerate() {
-                let (aa, bb) = quadratic(v, *r);
-                let t = -bb / (2.0 * aa);
-                if (t as f64) <= RAY_NEAR || t.is_nan() {
-                    continue;
-                }
-                let min_value = -((bb / aa) as f64) * (bb as f64 / 4.0) + v[9] as f64;
-                let power = ((-0.5 * min_value) as f32).min(0.0);
-                let alpha = (g.opacity * power.exp()).min(0.99);
-                // (f32::min never returns NaN, as CUDA's fminf)
-                if alpha < 1.0 / 255.0 {
-                    continue;
-                }
-                let test_t = ts[k] * (1.0 - alpha);
-                if test_t < 1e-4 {
-                    continue;
-                }
-                if k == 0 {
-                    for (ch, cc) in c.iter_mut().enumerate() {
-                        *cc += g.rgb[ch] * alpha * ts[0];
-                    }
-                }
-                ts[k] = test_t;
-                used = true;
-            }
-            if used {
-                last = contributor;
-                // the kernel stores list positions as u16 (they wrap past 65535)
-                ids.push(contributor as u16);
-                if ids.len() >= MAX_CONTRIBUTORS {
-                    break;
-                }
-            }
+            s.step(g, rays.map(|r| pixel::ray_alpha(g, r)));
         }
-        // the point pass's walk: list positions 1..=last that equal the next
-        // stored id (as u32), exactly as the kernel matches them
-        let mut walk = Vec::with_capacity(ids.len());
-        let mut next = 0usize;
-        for (pos, &gi) in list.iter().enumerate() {
-            let n = pos as u32 + 1;
-            if n > last {
-                break;
-            }
-            if n != ids.get(next).copied().unwrap_or(0) as u32 {
-                continue;
-            }
-            next += 1;
-            walk.push(gi);
-        }
-        let bg = self.background;
-        let rgb = std::array::from_fn(|ch| c[ch] + ts[0] * bg[ch]);
-        (walk, rgb)
+        s.finish(list, self.background)
     }
 
     /// The point pass: alpha_integrated of a point at pixel coordinates
@@ -336,17 +280,23 @@ impl PreparedView {
             return out;
         }
         let located: Vec<Option<Located>> = points.par_iter().map(|&p| self.locate(p)).collect();
-        // points grouped by pixel, in index order within a pixel
-        let mut keys: Vec<u64> = located
+        // points grouped by tile, then pixel in the tile, then index
+        let key = |pix: u32| {
+            let (i, j) = (pix as usize % self.w, pix as usize / self.w);
+            let tile = (j / TILE) * self.tiles_x + i / TILE;
+            (tile * TILE * TILE + (j % TILE) * TILE + i % TILE) as u64
+        };
+        let mut keys: Vec<(u64, u32)> = located
             .iter()
             .enumerate()
-            .filter_map(|(i, l)| l.map(|l| ((l.0 as u64) << 32) | i as u64))
+            .filter_map(|(i, l)| l.map(|l| (key(l.0), i as u32)))
             .collect();
         keys.par_sort_unstable();
+        let tile_of = |k: u64| k as usize / (TILE * TILE);
         let mut runs: Vec<(usize, usize)> = Vec::new();
         let mut start = 0;
         for k in 1..=keys.len() {
-            if k == keys.len() || keys[k] >> 32 != keys[start] >> 32 {
+            if k == keys.len() || tile_of(keys[k].0) != tile_of(keys[start].0) {
                 runs.push((start, k));
                 start = k;
             }
@@ -354,16 +304,27 @@ impl PreparedView {
         let results: Vec<Vec<(u32, f32, [f32; 3])>> = runs
             .par_iter()
             .map(|&(a, b)| {
-                let pix = (keys[a] >> 32) as usize;
-                let (walk, rgb) = self.pixel_pass(pix % self.w, pix / self.w);
-                keys[a..b]
-                    .iter()
-                    .map(|&k| {
-                        let idx = (k & 0xffff_ffff) as u32;
+                let run = &keys[a..b];
+                // the occupied pixels, and where each one's points start
+                let mut pixels = Vec::new();
+                let mut first = Vec::new();
+                for (n, &(k, _)) in run.iter().enumerate() {
+                    if n == 0 || run[n - 1].0 != k {
+                        let local = k as usize % (TILE * TILE);
+                        pixels.push((local % TILE, local / TILE));
+                        first.push(n);
+                    }
+                }
+                first.push(run.len());
+                let passes = pixel::tile_pass(self, tile_of(run[0].0), &pixels);
+                let mut out = Vec::with_capacity(run.len());
+                for (p, (walk, rgb)) in passes.iter().enumerate() {
+                    for &(_, idx) in &run[first[p]..first[p + 1]] {
                         let (_, x, y, d) = located[idx as usize].expect("located");
-                        (idx, self.point_alpha(&walk, x, y, d), rgb)
-                    })
-                    .collect()
+                        out.push((idx, self.point_alpha(walk, x, y, d), *rgb));
+                    }
+                }
+                out
             })
             .collect();
         for (idx, a, rgb) in results.into_iter().flatten() {

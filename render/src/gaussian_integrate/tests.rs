@@ -455,3 +455,33 @@ fn shell_inside_and_outside() {
     assert!(a_in.iter().all(|&a| a < 0.3), "{a_in:?}");
     assert!(a_out.iter().all(|&a| a > 0.9), "{a_out:?}");
 }
+
+/// The tile pass (shared corner rays, reach boxes) gives every pixel the
+/// same walk and colour, bit for bit, as the plain per-pixel kernel, with
+/// all pixels of a tile occupied and with a sparse few.
+#[test]
+fn tile_pass_matches_pixel_pass() {
+    let (g, _) = random_scene(500, 9);
+    for cam in [test_camera(40, 36, 40.0), posed_camera_pp(41.0, 30.5)] {
+        let s = IntegrateSettings {
+            background: [0.1, 0.5, 0.9],
+            kernel_size: 0.1,
+        };
+        let v = PreparedView::new(&g, &cam, &s);
+        let (w, h) = (cam.width as usize, cam.height as usize);
+        for tile in 0..v.binned.lists.len() {
+            let (x0, y0) = ((tile % v.tiles_x) * TILE, (tile / v.tiles_x) * TILE);
+            let all: Vec<(usize, usize)> = (0..TILE * TILE)
+                .map(|q| (q % TILE, q / TILE))
+                .filter(|&(lx, ly)| x0 + lx < w && y0 + ly < h)
+                .collect();
+            let sparse: Vec<(usize, usize)> = all.iter().copied().step_by(7).collect();
+            for set in [&all, &sparse] {
+                let got = pixel::tile_pass(&v, tile, set);
+                for (p, &(lx, ly)) in set.iter().enumerate() {
+                    assert_eq!(got[p], v.pixel_pass(x0 + lx, y0 + ly), "pixel {lx},{ly}");
+                }
+            }
+        }
+    }
+}
