@@ -60,14 +60,15 @@
 //! - the kernel's `MAX_NUM_PROJECTED` chunking of a pixel's points changes no
 //!   value and is not reproduced.
 //!
-//! Speed-up that changes no value: in the pixel pass, a Gaussian whose α ≥
-//! 1/255 region (the image of its ellipsoid at that level, widened for f32
-//! rounding and by a pixel) misses the pixel's square is skipped without
-//! evaluating its rays (it still counts as a list position). The corner rays
-//! a pixel shares with its neighbours are evaluated once per tile (see
-//! `pixel`). The
-//! margins are chosen to cover the kernel's f32 rounding; the test
-//! `reach_skip_is_exact` checks bit-equal results on random scenes.
+//! Speed-ups that change no value (tests `reach_skip_is_exact` and
+//! `tile_pass_matches_pixel_pass` check bit-equal results on random scenes):
+//! - a ray whose pixel position lies off the box of a Gaussian's α ≥ 1/255
+//!   region (the image of its ellipsoid at that level, widened for f32
+//!   rounding and by a pixel) is not evaluated for it: the kernel would skip
+//!   it (the Gaussian still counts as a list position);
+//! - the pixel pass runs per tile, evaluating each ray point of the tile
+//!   (corners shared by neighbouring pixels) once per Gaussian, each pixel
+//!   then applying its own transmittance tests in list order (`pixel`).
 //!
 //! Parallel over the pixels that hold points; each point's value is computed
 //! by one sequential loop, so results do not depend on the thread count.
