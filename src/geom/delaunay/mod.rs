@@ -41,9 +41,10 @@ use triangulation::{TET_BYTES, Triangulation};
 ///   `((p[b] − p[a]) × (p[c] − p[a])) · (p[d] − p[a]) < 0`. No tet is flat.
 /// - Empty spheres: no input point lies strictly inside any tet's
 ///   circumsphere (tested exactly). Where five or more points are
-///   co-spherical, the tie is settled by a symbolic perturbation that orders
-///   points by index, so the output is one of the Delaunay triangulations and
-///   is fully determined by the input.
+///   co-spherical, the tie is settled by a symbolic perturbation in a fixed
+///   order of the points (their insertion order, itself determined by the
+///   input), so the output is one of the Delaunay triangulations and is
+///   fully determined by the input.
 /// - Duplicates: of equal points only the first (lowest index) is used; the
 ///   others are in no tet. Every other point is a vertex of some tet.
 /// - Fewer than 4 distinct points, or all points coplanar: `Ok(empty)`.
@@ -101,18 +102,22 @@ pub fn tetrahedralize_within(points: &[[f64; 3]], max_bytes: u64) -> Result<Vec<
     let fixed = n as u64 * (BYTES_PER_POINT - 8 * TET_BYTES);
     let max_tets = (max_bytes.saturating_sub(fixed) / TET_BYTES).min(u32::MAX as u64 - 4) as usize;
     let capacity = (ids.len() * 15 / 2 + 16).min(max_tets);
-    let mut tri = Triangulation::new(&pts, first, capacity, max_tets);
-    for &i in &ids[4..] {
-        tri.insert(i)?;
+    // The points in insertion order: vertex k of the triangulation is
+    // input point ids[k], so that points near in space are near in memory.
+    let sorted: Vec<[f64; 3]> = ids.iter().map(|&i| pts[i as usize]).collect();
+    drop(pts);
+    let mut tri = Triangulation::new(&sorted, first, capacity, max_tets);
+    for k in 4..sorted.len() as u32 {
+        tri.insert(k)?;
     }
-    drop(ids);
-    Ok(tri.finite_tets())
+    Ok(tri.finite_tets(&ids))
 }
 
 /// Picks the first tet: the first point of the order, the next, the first
 /// not collinear with them and the first not coplanar with those three,
-/// moved to the front of `ids` (the rest keep their order); oriented
-/// positive. `None` when all points are coplanar (or fewer than 4).
+/// moved to the front of `ids` (the rest keep their order). Returns the
+/// positions in `ids` (0..4) of a positive tet on them; `None` when all
+/// points are coplanar (or fewer than 4).
 fn initial_tet(pts: &[[f64; 3]], ids: &mut Vec<u32>) -> Option<[u32; 4]> {
     if ids.len() < 4 {
         return None;
@@ -127,9 +132,10 @@ fn initial_tet(pts: &[[f64; 3]], ids: &mut Vec<u32>) -> Option<[u32; 4]> {
     ids.remove(k3);
     ids.remove(k2);
     ids.splice(2..2, [c, d]);
+    // Vertices 0..4 of the triangulation are ids[0..4].
     if predicates::orient(p(a), p(b), p(c), p(d)) > 0.0 {
-        Some([a, b, c, d])
+        Some([0, 1, 2, 3])
     } else {
-        Some([b, a, c, d])
+        Some([1, 0, 2, 3])
     }
 }

@@ -3,7 +3,8 @@
 //! for point location and Bowyer–Watson cavity insertion.
 //!
 //! Conventions:
-//! - Tet `t` has vertices `v[0..4]` (input indices, or [`INF`]) and
+//! - Tet `t` has vertices `v[0..4]` (indices into the points it was given,
+//!   or [`INF`]) and
 //!   neighbours `n[0..4]`, `n[i]` being the tet across the face opposite
 //!   `v[i]`.
 //! - Every tet is positive (`predicates::orient > 0`); an infinite tet is
@@ -398,12 +399,12 @@ impl<'a> Triangulation<'a> {
         Ok(())
     }
 
-    /// The finite tets, in slot order.
-    pub(super) fn finite_tets(&self) -> Vec<[u32; 4]> {
+    /// The finite tets, in slot order, vertex k renamed `names[k]`.
+    pub(super) fn finite_tets(&self, names: &[u32]) -> Vec<[u32; 4]> {
         self.tets
             .iter()
             .filter(|t| t.v[0] != DEAD && !t.v.contains(&INF))
-            .map(|t| t.v)
+            .map(|t| t.v.map(|k| names[k as usize]))
             .collect()
     }
 }
