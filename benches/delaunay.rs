@@ -5,6 +5,9 @@
 //! that `/usr/bin/time -f "%e s %M KB"` gives its peak memory), or with no
 //! arguments every case at 1M points. Cases:
 //! - `uniform`: N points uniform in the unit cube;
+//! - `grid`: the k × k × k integer grid, k = round(∛N) (every cube's 8
+//!   corners co-spherical, every face's 4 co-circular);
+//! - `dup`: 0.9·N uniform points and 0.1·N exact duplicates of them;
 //! - `degenerate`: 45% a regular grid (massively co-spherical and
 //!   co-planar), 45% corners of axis-aligned boxes (each 8 exactly
 //!   co-spherical), 10% exact duplicates of those, shuffled;
@@ -23,6 +26,28 @@ fn uniform(n: usize, rng: &mut rand_pcg::Pcg64Mcg) -> Vec<[f64; 3]> {
     (0..n)
         .map(|_| std::array::from_fn(|_| rng.random::<f64>()))
         .collect()
+}
+
+fn grid(n: usize) -> Vec<[f64; 3]> {
+    let k = (n as f64).cbrt().round() as usize;
+    let mut v = Vec::with_capacity(k * k * k);
+    for x in 0..k {
+        for y in 0..k {
+            for z in 0..k {
+                v.push([x as f64, y as f64, z as f64]);
+            }
+        }
+    }
+    v
+}
+
+fn dup(n: usize, rng: &mut rand_pcg::Pcg64Mcg) -> Vec<[f64; 3]> {
+    let mut v = uniform(n * 9 / 10, rng);
+    let base = v.len();
+    while v.len() < n {
+        v.push(v[rng.random_range(0..base)]);
+    }
+    v
 }
 
 fn degenerate(n: usize, rng: &mut rand_pcg::Pcg64Mcg) -> Vec<[f64; 3]> {
@@ -109,9 +134,11 @@ fn run(case: &str, n: usize) {
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(1);
     let pts = match case {
         "uniform" => uniform(n, &mut rng),
+        "grid" => grid(n),
+        "dup" => dup(n, &mut rng),
         "degenerate" => degenerate(n, &mut rng),
         "gof" => gof(n, &mut rng),
-        other => panic!("unknown case {other} (uniform, degenerate, gof)"),
+        other => panic!("unknown case {other} (uniform, grid, dup, degenerate, gof)"),
     };
     let t = Instant::now();
     let tets = tetrahedralize(&pts).expect("tetrahedralize");
@@ -132,7 +159,7 @@ fn main() {
     match args.as_slice() {
         [case, n] => run(case, n.parse().expect("N: a point count")),
         [] => {
-            for case in ["uniform", "degenerate", "gof"] {
+            for case in ["uniform", "grid", "dup", "degenerate", "gof"] {
                 run(case, 1_000_000);
             }
         }
