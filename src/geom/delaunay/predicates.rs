@@ -50,18 +50,18 @@ pub(super) fn collinear(a: [f64; 3], b: [f64; 3], c_: [f64; 3]) -> bool {
         .all(|&(i, j)| orient2d(proj(a, i, j), proj(b, i, j), proj(c_, i, j)) == 0.0)
 }
 
-/// Whether point `e` (input index `ie`) is in conflict with the positive tet
-/// `p[0..4]` (input indices `ids`): strictly inside its circumsphere, with
+/// Whether point `e` (vertex number `ie`) is in conflict with the positive
+/// tet `p[0..4]` (vertex numbers `ids`): strictly inside its circumsphere, with
 /// exact ties broken by a symbolic perturbation.
 ///
 /// The perturbation raises the lifted coordinate |x|² of every point by an
-/// infinitesimal ε_i, where ε_i ≫ ε_j whenever index i > j (a fixed total
+/// infinitesimal ε_i, where ε_i ≫ ε_j whenever vertex number i > j (a fixed total
 /// order, so every test sees the same perturbed point set: the result is the
 /// Delaunay triangulation of the perturbed points, a regular triangulation
 /// with infinitesimal weights, which is one of the Delaunay triangulations of
 /// the input). The in-sphere determinant is linear in each lift, so its
 /// perturbed sign is that of the first non-zero term, taken in decreasing
-/// index order: for `e` itself the term is −orient(tet) < 0 (outside); for
+/// vertex-number order: for `e` itself the term is −orient(tet) < 0 (outside); for
 /// tet vertex k it is +orient(tet with vertex k replaced by `e`).
 #[inline]
 pub(super) fn conflict_sos(p: [[f64; 3]; 4], ids: [u32; 4], e: [f64; 3], ie: u32) -> bool {

@@ -235,7 +235,7 @@ impl<'a> Triangulation<'a> {
             .find(|&t| self.tets[t as usize].v[0] != DEAD && self.conflict(t, pid))
             .ok_or_else(|| {
                 Error::invalid(format!(
-                    "Delaunay: no tet is in conflict with point {pid} (internal inconsistency)"
+                    "Delaunay: no tet is in conflict with the point inserted {pid}th (internal inconsistency)"
                 ))
             })
     }
@@ -319,7 +319,7 @@ impl<'a> Triangulation<'a> {
         }
         if bad {
             return Err(Error::invalid(format!(
-                "Delaunay: inserting point {pid} would make a flat tet (internal inconsistency)"
+                "Delaunay: inserting the point inserted {pid}th would make a flat tet (internal inconsistency)"
             )));
         }
         Ok(())
@@ -392,7 +392,7 @@ impl<'a> Triangulation<'a> {
         }
         if !self.edges.is_empty() || last == NONE {
             return Err(Error::invalid(format!(
-                "Delaunay: the cavity of point {pid} is not a closed ball (internal inconsistency)"
+                "Delaunay: the cavity of the point inserted {pid}th is not a closed ball (internal inconsistency)"
             )));
         }
         self.hint = last;
