@@ -79,6 +79,21 @@ pub fn estimated_bytes(n: usize) -> u64 {
 /// [`estimated_bytes`] exceeds it, and stopped with an error when the tets
 /// outgrow it.
 pub fn tetrahedralize_within(points: &[[f64; 3]], max_bytes: u64) -> Result<Vec<[u32; 4]>> {
+    tetrahedralize_with_progress(points, max_bytes, &mut |_, _| {})
+}
+
+/// Points inserted between two calls of the progress callback.
+pub const PROGRESS_STEP: usize = 1 << 16;
+
+/// [`tetrahedralize_within`] reporting progress: `progress(done, total)` is
+/// called with the number of distinct points inserted so far and their
+/// total, every [`PROGRESS_STEP`] points and once at the end (not at all
+/// when there is nothing to triangulate).
+pub fn tetrahedralize_with_progress(
+    points: &[[f64; 3]],
+    max_bytes: u64,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<[u32; 4]>> {
     let n = points.len();
     if n as u64 >= (u32::MAX - 2) as u64 {
         return Err(Error::invalid(format!(
@@ -107,9 +122,14 @@ pub fn tetrahedralize_within(points: &[[f64; 3]], max_bytes: u64) -> Result<Vec<
     let sorted: Vec<[f64; 3]> = ids.iter().map(|&i| pts[i as usize]).collect();
     drop(pts);
     let mut tri = Triangulation::new(&sorted, first, capacity, max_tets);
-    for k in 4..sorted.len() as u32 {
-        tri.insert(k)?;
+    let total = sorted.len();
+    for k in 4..total {
+        tri.insert(k as u32)?;
+        if (k + 1) % PROGRESS_STEP == 0 {
+            progress(k + 1, total);
+        }
     }
+    progress(total, total);
     Ok(tri.finite_tets(&ids))
 }
 

@@ -9,7 +9,10 @@ use std::collections::HashMap;
 use rand::{RngExt, SeedableRng};
 use robust::Coord3D;
 
-use super::{estimated_bytes, tetrahedralize, tetrahedralize_within};
+use super::{
+    PROGRESS_STEP, estimated_bytes, tetrahedralize, tetrahedralize_with_progress,
+    tetrahedralize_within,
+};
 
 fn c(p: [f64; 3]) -> Coord3D<f64> {
     Coord3D {
@@ -357,4 +360,16 @@ fn memory_limit_is_an_error() {
     let e = tetrahedralize_within(&pts, estimated_bytes(1000) - 1).unwrap_err();
     assert!(e.to_string().contains("limit"), "{e}");
     assert!(tetrahedralize_within(&pts, estimated_bytes(1000)).is_ok());
+}
+
+#[test]
+fn progress_counts_distinct_points_up_to_the_end() {
+    let mut pts = random_points(PROGRESS_STEP + 1000, 12);
+    pts.push(pts[0]);
+    let mut calls = Vec::new();
+    let tets =
+        tetrahedralize_with_progress(&pts, u64::MAX, &mut |d, t| calls.push((d, t))).unwrap();
+    let n = PROGRESS_STEP + 1000;
+    assert_eq!(calls, vec![(PROGRESS_STEP, n), (n, n)]);
+    assert_eq!(tets, tetrahedralize(&pts).unwrap());
 }
