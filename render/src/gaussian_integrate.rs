@@ -72,6 +72,12 @@
 //!
 //! Parallel over the pixels that hold points; each point's value is computed
 //! by one sequential loop, so results do not depend on the thread count.
+//!
+//! Pixel passes are kept between [`PreparedView::integrate`] calls, within
+//! [`IntegrateSettings::cache_bytes`]: a pixel's pass depends on the view
+//! alone, so the binary search's later evaluations reuse the passes of the
+//! pixels their points fall in (GOF's kernel recomputes them every call;
+//! the results are the same bit for bit, tested).
 
 mod pixel;
 mod view;
@@ -109,6 +115,11 @@ pub struct IntegrateSettings {
     pub background: [f32; 3],
     /// The 2-D Mip filter's `kernel_size`, pixels² (GOF's default 0).
     pub kernel_size: f32,
+    /// Bytes a [`PreparedView`] may keep of pixel passes between
+    /// [`PreparedView::integrate`] calls (a pixel's pass depends on the view
+    /// only, so later calls on points in the same pixels reuse it; results
+    /// are the same bit for bit). 0 keeps none.
+    pub cache_bytes: usize,
 }
 
 impl Default for IntegrateSettings {
@@ -116,8 +127,20 @@ impl Default for IntegrateSettings {
         IntegrateSettings {
             background: [0.0; 3],
             kernel_size: 0.0,
+            cache_bytes: 64 << 20,
         }
     }
+}
+
+/// A pixel's pass: the Gaussians its points walk, and its colour.
+type Pass = (Vec<u32>, [f32; 3]);
+
+/// The pixel passes a view keeps (by pixel id), within a byte limit.
+#[derive(Default)]
+struct PassCache {
+    passes: std::sync::Mutex<std::collections::HashMap<u32, std::sync::Arc<Pass>>>,
+    bytes: std::sync::atomic::AtomicUsize,
+    limit: usize,
 }
 
 /// Per point, what one view's integration gives.
@@ -149,6 +172,8 @@ pub struct PreparedView {
     /// Skip Gaussians whose reach box misses the pixel (same results; off
     /// only in the test that checks this).
     use_reach: bool,
+    /// Pixel passes kept between calls.
+    cache: PassCache,
 }
 
 /// One point's place in a view: pixel id, pixel coordinates, view depth.
@@ -174,6 +199,10 @@ impl PreparedView {
             background: s.background,
             binned,
             use_reach: true,
+            cache: PassCache {
+                limit: s.cache_bytes,
+                ..Default::default()
+            },
         }
     }
 
@@ -213,6 +242,53 @@ impl PreparedView {
         // the pixel whose [i, i + 1) holds x; guard x = W − ε rounding to W
         let (i, j) = ((x as usize).min(self.w - 1), (y as usize).min(self.h - 1));
         Some(((j * self.w + i) as u32, x, y, c[2]))
+    }
+
+    /// The passes of `pixels` (local (x, y) in `tile`): those kept from
+    /// earlier calls, the others computed by [`pixel::tile_pass`] (whose
+    /// per-pixel results do not depend on which pixels it is given) and kept
+    /// while the cache is under its limit.
+    fn cached_passes(&self, tile: usize, pixels: &[(usize, usize)]) -> Vec<std::sync::Arc<Pass>> {
+        use std::sync::atomic::Ordering;
+        let (x0, y0) = ((tile % self.tiles_x) * TILE, (tile / self.tiles_x) * TILE);
+        let id = |&(lx, ly): &(usize, usize)| ((y0 + ly) * self.w + x0 + lx) as u32;
+        let mut found: Vec<Option<std::sync::Arc<Pass>>> = if self.cache.limit > 0 {
+            let c = self.cache.passes.lock().expect("cache lock");
+            pixels.iter().map(|p| c.get(&id(p)).cloned()).collect()
+        } else {
+            vec![None; pixels.len()]
+        };
+        let missing: Vec<(usize, usize)> = pixels
+            .iter()
+            .zip(&found)
+            .filter(|(_, f)| f.is_none())
+            .map(|(p, _)| *p)
+            .collect();
+        if missing.is_empty() {
+            return found.into_iter().map(|f| f.expect("found")).collect();
+        }
+        let fresh: Vec<std::sync::Arc<Pass>> = pixel::tile_pass(self, tile, &missing)
+            .into_iter()
+            .map(std::sync::Arc::new)
+            .collect();
+        if self.cache.limit > 0 {
+            let add: usize = fresh.iter().map(|p| p.0.len() * 4 + 64).sum();
+            if self.cache.bytes.fetch_add(add, Ordering::Relaxed) + add <= self.cache.limit {
+                let mut c = self.cache.passes.lock().expect("cache lock");
+                for (p, f) in missing.iter().zip(&fresh) {
+                    c.insert(id(p), f.clone());
+                }
+            } else {
+                self.cache.bytes.fetch_sub(add, Ordering::Relaxed);
+            }
+        }
+        let mut fresh = fresh.into_iter();
+        for f in found.iter_mut() {
+            if f.is_none() {
+                *f = fresh.next();
+            }
+        }
+        found.into_iter().map(|f| f.expect("computed")).collect()
     }
 
     /// The camera-space ray direction (x, y, 1) through pixel coordinates
@@ -317,9 +393,11 @@ impl PreparedView {
                     }
                 }
                 first.push(run.len());
-                let passes = pixel::tile_pass(self, tile_of(run[0].0), &pixels);
+                let tile = tile_of(run[0].0);
+                let passes = self.cached_passes(tile, &pixels);
                 let mut out = Vec::with_capacity(run.len());
-                for (p, (walk, rgb)) in passes.iter().enumerate() {
+                for (p, pass) in passes.iter().enumerate() {
+                    let (walk, rgb) = &**pass;
                     for &(_, idx) in &run[first[p]..first[p + 1]] {
                         let (_, x, y, d) = located[idx as usize].expect("located");
                         out.push((idx, self.point_alpha(walk, x, y, d), *rgb));

@@ -160,6 +160,9 @@ pub fn run(args: TetraMeshArgs) -> anyhow::Result<()> {
                 [0.0; 3]
             },
             kernel_size: args.kernel_size as f32,
+            // pixel passes kept between the search's evaluations: a
+            // quarter of the budget, shared by the views
+            cache_bytes: (budget::usable_bytes() / 4 / cams.len().max(1) as u64) as usize,
         },
         keep_views: !args.low_memory && views_fit(&g, &cams),
         max_bytes: budget::usable_bytes(),

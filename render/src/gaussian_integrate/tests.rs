@@ -249,6 +249,7 @@ fn colour_matches_rasteriser_at_the_centre_pixel() {
     let s = IntegrateSettings {
         background: bg,
         kernel_size: 0.0,
+        ..Default::default()
     };
     let view = PreparedView::new(&g, &cam, &s);
     let p = [
@@ -309,6 +310,7 @@ fn independent_of_thread_count() {
     let s = IntegrateSettings {
         background: [1.0; 3],
         kernel_size: 0.1,
+        ..Default::default()
     };
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
@@ -325,6 +327,34 @@ fn independent_of_thread_count() {
     assert!(one.0.iter().all(|&a| (0.0..=1.0).contains(&a)));
 }
 
+/// Kept pixel passes change nothing (bit for bit): a view evaluated twice
+/// with its cache (the second call reuses the first's passes, then new
+/// points in new pixels), without one, and with a limit too small to keep
+/// more than a few passes.
+#[test]
+fn kept_pixel_passes_are_exact() {
+    let (g, pts) = random_scene(400, 11);
+    let (a, b) = pts.split_at(pts.len() / 2);
+    let cam = test_camera(96, 80, 70.0);
+    let with = |bytes: usize| IntegrateSettings {
+        cache_bytes: bytes,
+        ..Default::default()
+    };
+    let fresh = PreparedView::new(&g, &cam, &with(0));
+    let want_a = fresh.integrate(a);
+    let want_all = fresh.integrate(&pts);
+    for bytes in [64 << 20, 2_000] {
+        let v = PreparedView::new(&g, &cam, &with(bytes));
+        assert_eq!(v.integrate(a), want_a, "cache {bytes}: first call");
+        assert_eq!(v.integrate(&pts), want_all, "cache {bytes}: reuse");
+        assert_eq!(v.integrate(a), want_a, "cache {bytes}: all kept");
+        let kept = v.cache.bytes.load(std::sync::atomic::Ordering::Relaxed);
+        assert!(kept <= bytes, "{kept} bytes kept over the limit {bytes}");
+        assert!(kept > 0, "nothing kept");
+    }
+    assert!(!b.is_empty());
+}
+
 /// Skipping the Gaussians whose reach box misses a pixel changes nothing
 /// (bit for bit), on a random scene with many near-threshold Gaussians.
 #[test]
@@ -334,6 +364,7 @@ fn reach_skip_is_exact() {
         let s = IntegrateSettings {
             background: [0.3; 3],
             kernel_size: 0.1,
+            ..Default::default()
         };
         let mut v = PreparedView::new(&g, &cam, &s);
         let fast = v.integrate(&pts);
@@ -466,6 +497,7 @@ fn tile_pass_matches_pixel_pass() {
         let s = IntegrateSettings {
             background: [0.1, 0.5, 0.9],
             kernel_size: 0.1,
+            ..Default::default()
         };
         let v = PreparedView::new(&g, &cam, &s);
         let (w, h) = (cam.width as usize, cam.height as usize);
