@@ -100,24 +100,7 @@ fn gof(n: usize, rng: &mut rand_pcg::Pcg64Mcg) -> Vec<[f64; 3]> {
         // A random rotation from a random unit quaternion.
         let q: [f64; 4] = std::array::from_fn(|_| rng.random::<f64>() - 0.5);
         let l = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let [w, x, y, z] = q.map(|v| v / l);
-        let r = [
-            [
-                1.0 - 2.0 * (y * y + z * z),
-                2.0 * (x * y - w * z),
-                2.0 * (x * z + w * y),
-            ],
-            [
-                2.0 * (x * y + w * z),
-                1.0 - 2.0 * (x * x + z * z),
-                2.0 * (y * z - w * x),
-            ],
-            [
-                2.0 * (x * z - w * y),
-                2.0 * (y * z + w * x),
-                1.0 - 2.0 * (x * x + y * y),
-            ],
-        ];
+        let r = splatkit_render::gaussian::quat_matrix(q.map(|v| v / l));
         pts.push(c);
         for corner in 0..8 {
             let d: [f64; 3] =

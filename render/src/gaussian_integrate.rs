@@ -85,7 +85,7 @@ mod view;
 use rayon::prelude::*;
 
 use crate::Camera;
-use crate::gaussian::Gaussians3;
+use crate::gaussian::{Gaussians3, rotation_rows};
 use crate::tiles::TILE;
 pub use view::CULL_NEAR;
 use view::{Binned, ViewGaussian, bin};
@@ -185,7 +185,6 @@ impl PreparedView {
     /// Panics if `g`'s arrays disagree in length (a caller's bug).
     pub fn new(g: &Gaussians3, cam: &Camera, s: &IntegrateSettings) -> Self {
         let binned = bin(g, cam, s.kernel_size as f64);
-        let r = cam.rotation;
         PreparedView {
             w: cam.width as usize,
             h: cam.height as usize,
@@ -194,7 +193,7 @@ impl PreparedView {
             fy: cam.fy as f32,
             cx: cam.cx,
             cy: cam.cy,
-            rotation: std::array::from_fn(|i| [r.x_axis[i], r.y_axis[i], r.z_axis[i]]),
+            rotation: rotation_rows(cam),
             translation: cam.translation.to_array(),
             background: s.background,
             binned,

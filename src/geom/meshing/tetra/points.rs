@@ -25,7 +25,7 @@
 
 use rayon::prelude::*;
 use splatkit_render::Camera;
-use splatkit_render::gaussian::Gaussians3;
+use splatkit_render::gaussian::{Gaussians3, quat_matrix};
 
 /// GOF's default near limit of the frustum test (camera z, scene units).
 pub const DEFAULT_NEAR: f64 = 0.02;
@@ -49,24 +49,7 @@ fn rotation(q: [f32; 4]) -> [[f64; 3]; 3] {
     if !(n > 0.0 && n.is_finite()) {
         return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     }
-    let [w, x, y, z] = q.map(|v| v / n);
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
+    quat_matrix(q.map(|v| v / n))
 }
 
 /// All 9N candidate points (8N corners then N centres, see the module doc)
