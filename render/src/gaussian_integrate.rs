@@ -133,7 +133,31 @@ impl Default for IntegrateSettings {
 }
 
 /// A pixel's pass: the Gaussians its points walk, and its colour.
-type Pass = (Vec<u32>, [f32; 3]);
+#[derive(Debug, PartialEq)]
+struct Pass {
+    /// The contributors in list order, with what the point pass reads of
+    /// each, side by side (a pixel's points, and the search steps that come
+    /// back to the pixel, read them in sequence).
+    walk: Vec<WalkEntry>,
+    /// The pixel's colour over the background.
+    rgb: [f32; 3],
+}
+
+/// One contributor of a pixel's walk, as the point pass reads it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct WalkEntry {
+    /// [`ViewGaussian::v2g`].
+    v2g: [f32; 10],
+    /// [`ViewGaussian::opacity`].
+    opacity: f32,
+    /// [`ViewGaussian::near`].
+    near: f32,
+    /// [`ViewGaussian::skip_below`].
+    skip_below: f32,
+    /// The smallest `near` of the walk from this entry on: a point
+    /// shallower than it gets nothing more from the walk.
+    tail_near: f32,
+}
 
 /// The pixel passes a view keeps (by pixel id), within a byte limit.
 #[derive(Default)]
@@ -271,7 +295,10 @@ impl PreparedView {
             .map(std::sync::Arc::new)
             .collect();
         if self.cache.limit > 0 {
-            let add: usize = fresh.iter().map(|p| p.0.len() * 4 + 64).sum();
+            let add: usize = fresh
+                .iter()
+                .map(|p| p.walk.len() * std::mem::size_of::<WalkEntry>() + 80)
+                .sum();
             if self.cache.bytes.fetch_add(add, Ordering::Relaxed) + add <= self.cache.limit {
                 let mut c = self.cache.passes.lock().expect("cache lock");
                 for (p, f) in missing.iter().zip(&fresh) {
@@ -304,27 +331,46 @@ impl PreparedView {
     /// kept list) the point pass walks, in order, and the pixel's colour
     /// (the reference [`pixel::tile_pass`] is tested against).
     #[cfg(test)]
-    fn pixel_pass(&self, i: usize, j: usize) -> (Vec<u32>, [f32; 3]) {
+    fn pixel_pass(&self, i: usize, j: usize) -> Pass {
         let tile = (j / TILE) * self.tiles_x + i / TILE;
         let list = self.binned.lists.list(tile);
         let (pxf, pyf) = (i as f32 + 0.5, j as f32 + 0.5);
         let rays: [[f32; 2]; 5] = OFFSETS.map(|(dx, dy)| self.ray(pxf + dx, pyf + dy));
         let mut s = pixel::PixelState::new();
-        for &gi in list {
+        for (n, &gi) in list.iter().enumerate() {
             let g = &self.binned.gaussians[gi as usize];
-            s.step(g, rays.map(|r| pixel::ray_alpha(g, r)));
+            s.step(g, n as u32 + 1, rays.map(|r| pixel::ray_alpha(g, r)));
         }
-        s.finish(list, self.background)
+        s.finish(list, self.background, &self.binned.gaussians)
     }
 
     /// The point pass: alpha_integrated of a point at pixel coordinates
     /// (x, y) and view depth `depth` over the pixel's walk.
-    fn point_alpha(&self, walk: &[u32], x: f32, y: f32, depth: f32) -> f32 {
+    ///
+    /// Two exits and a skip give the kernel's value bit for bit with less work (off
+    /// with `use_reach = false`, as the test that checks them sets it):
+    /// - the walk ends where every remaining Gaussian's ellipsoid lies behind
+    ///   the point (`depth < tail_near`): each would have α < 1/255 and be
+    ///   skipped;
+    /// - it ends once the transmittance is below 2⁻²⁶ with acc ≥ 0.5: every
+    ///   later term α·T (α ≤ 0.99, T never grows) is then below half an ulp
+    ///   of acc (≥ 2⁻²⁵), so adding it rounds back to acc;
+    /// - an exponent below [`ViewGaussian::skip_below`] is skipped without
+    ///   evaluating the exponential.
+    fn point_alpha(&self, pass: &Pass, x: f32, y: f32, depth: f32) -> f32 {
+        const TINY: f32 = 1.0 / (1u64 << 26) as f32;
         let r = self.ray(x, y);
         let mut acc = 0.0f32;
         let mut tr = 1.0f32;
-        for &gi in walk {
-            let g = &self.binned.gaussians[gi as usize];
+        for g in &pass.walk {
+            if self.use_reach {
+                if depth < g.tail_near {
+                    break;
+                }
+                if depth < g.near {
+                    continue;
+                }
+            }
             let v = &g.v2g;
             let (aa, bb) = quadratic(v, r);
             let mut t = -bb / (2.0 * aa);
@@ -332,12 +378,18 @@ impl PreparedView {
                 t = depth;
             }
             let power = -0.5f32 * (aa * t * t + bb * t + v[9]);
+            if self.use_reach && power < g.skip_below {
+                continue;
+            }
             let alpha = (g.opacity * power.exp()).min(0.99);
             if alpha < 1.0 / 255.0 {
                 continue;
             }
             acc += alpha * tr;
             tr *= 1.0 - alpha;
+            if self.use_reach && tr < TINY && acc >= 0.5 {
+                break;
+            }
         }
         acc
     }
@@ -396,10 +448,9 @@ impl PreparedView {
                 let passes = self.cached_passes(tile, &pixels);
                 let mut out = Vec::with_capacity(run.len());
                 for (p, pass) in passes.iter().enumerate() {
-                    let (walk, rgb) = &**pass;
                     for &(_, idx) in &run[first[p]..first[p + 1]] {
                         let (_, x, y, d) = located[idx as usize].expect("located");
-                        out.push((idx, self.point_alpha(walk, x, y, d), *rgb));
+                        out.push((idx, self.point_alpha(pass, x, y, d), pass.rgb));
                     }
                 }
                 out

@@ -10,7 +10,7 @@
 //! tests in list order: the same operations as the per-pixel kernel.
 
 use super::view::ViewGaussian;
-use super::{MAX_CONTRIBUTORS, PreparedView, RAY_NEAR, quadratic};
+use super::{MAX_CONTRIBUTORS, Pass, PreparedView, RAY_NEAR, WalkEntry, quadratic};
 use crate::tiles::TILE;
 
 /// The state-independent part of one ray's step: α of Gaussian `g` on ray
@@ -54,14 +54,15 @@ impl PixelState {
         }
     }
 
-    /// The next list entry `g` with its five rays' α (centre first);
-    /// nothing once the pixel is done.
+    /// List entry `g` at 1-based list position `pos` (increasing from call
+    /// to call; entries in between are ones all five rays skip) with its
+    /// five rays' α (centre first); nothing once the pixel is done.
     #[inline]
-    pub(super) fn step(&mut self, g: &ViewGaussian, alphas: [Option<f32>; 5]) {
+    pub(super) fn step(&mut self, g: &ViewGaussian, pos: u32, alphas: [Option<f32>; 5]) {
         if self.done {
             return;
         }
-        self.contributor += 1;
+        self.contributor = pos;
         let mut used = false;
         for (k, a) in alphas.iter().enumerate() {
             let Some(alpha) = *a else { continue };
@@ -87,18 +88,11 @@ impl PixelState {
         }
     }
 
-    /// A list entry this pixel's rays all skip (α < 1/255 for each).
-    #[inline]
-    pub(super) fn skip(&mut self) {
-        if !self.done {
-            self.contributor += 1;
-        }
-    }
-
     /// The point pass's walk over `list` (list positions 1..=last equal to
     /// the next stored id, as u32, exactly as the kernel matches them) and
-    /// the pixel's colour over `bg`.
-    pub(super) fn finish(&self, list: &[u32], bg: [f32; 3]) -> (Vec<u32>, [f32; 3]) {
+    /// the pixel's colour over `bg`; `gaussians` are the view's records the
+    /// list indexes (for the walk's depth bounds).
+    pub(super) fn finish(&self, list: &[u32], bg: [f32; 3], gaussians: &[ViewGaussian]) -> Pass {
         let mut walk = Vec::with_capacity(self.ids.len());
         let mut next = 0usize;
         for (pos, &gi) in list.iter().enumerate() {
@@ -113,7 +107,25 @@ impl PixelState {
             walk.push(gi);
         }
         let rgb = std::array::from_fn(|ch| self.c[ch] + self.ts[0] * bg[ch]);
-        (walk, rgb)
+        let mut walk: Vec<WalkEntry> = walk
+            .iter()
+            .map(|&gi| {
+                let g = &gaussians[gi as usize];
+                WalkEntry {
+                    v2g: g.v2g,
+                    opacity: g.opacity,
+                    near: g.near,
+                    skip_below: g.skip_below,
+                    tail_near: f32::INFINITY,
+                }
+            })
+            .collect();
+        let mut m = f32::INFINITY;
+        for e in walk.iter_mut().rev() {
+            m = m.min(e.near);
+            e.tail_near = m;
+        }
+        Pass { walk, rgb }
     }
 }
 
@@ -128,11 +140,7 @@ fn off_box(b: &[f32; 4], u: f32, v: f32) -> bool {
 
 /// The pixel pass of the occupied pixels `pixels` (local (x, y) in tile
 /// `tile`, any order): per pixel, its walk and colour.
-pub(super) fn tile_pass(
-    view: &PreparedView,
-    tile: usize,
-    pixels: &[(usize, usize)],
-) -> Vec<(Vec<u32>, [f32; 3])> {
+pub(super) fn tile_pass(view: &PreparedView, tile: usize, pixels: &[(usize, usize)]) -> Vec<Pass> {
     const G: usize = TILE + 1;
     let list = view.binned.lists.list(tile);
     let (x0, y0) = ((tile % view.tiles_x) * TILE, (tile / view.tiles_x) * TILE);
@@ -163,9 +171,16 @@ pub(super) fn tile_pass(
     let mut alpha_corner = [None; G * G];
     let mut alpha_centre = [None; TILE * TILE];
     let mut states = vec![PixelState::new(); pixels.len()];
-    for &gi in list {
+    // the span of the tile's grid points: a Gaussian whose reach box misses
+    // it is off the box at every grid point
+    let span = [x0 as f32, y0 as f32, (x0 + TILE) as f32, (y0 + TILE) as f32];
+    for (n, &gi) in list.iter().enumerate() {
         let g = &view.binned.gaussians[gi as usize];
         let b = &g.reach;
+        if view.use_reach && (b[2] < span[0] || b[0] > span[2] || b[3] < span[1] || b[1] > span[3])
+        {
+            continue;
+        }
         let mut any = false;
         for &(q, (u, v, r)) in &corners {
             let a = if view.use_reach && off_box(b, u, v) {
@@ -185,23 +200,23 @@ pub(super) fn tile_pass(
             alpha_centre[q] = a;
             any |= a.is_some();
         }
+        if !any {
+            continue;
+        }
         let mut all_done = true;
         for (s, &(lx, ly)) in states.iter_mut().zip(pixels) {
-            if any {
-                let c = |dx: usize, dy: usize| alpha_corner[(ly + dy) * G + lx + dx];
-                s.step(
-                    g,
-                    [
-                        alpha_centre[ly * TILE + lx],
-                        c(0, 0),
-                        c(1, 0),
-                        c(0, 1),
-                        c(1, 1),
-                    ],
-                );
-            } else {
-                s.skip();
-            }
+            let c = |dx: usize, dy: usize| alpha_corner[(ly + dy) * G + lx + dx];
+            s.step(
+                g,
+                n as u32 + 1,
+                [
+                    alpha_centre[ly * TILE + lx],
+                    c(0, 0),
+                    c(1, 0),
+                    c(0, 1),
+                    c(1, 1),
+                ],
+            );
             all_done &= s.done;
         }
         if all_done {
@@ -210,6 +225,6 @@ pub(super) fn tile_pass(
     }
     states
         .iter()
-        .map(|s| s.finish(list, view.background))
+        .map(|s| s.finish(list, view.background, &view.binned.gaussians))
         .collect()
 }

@@ -35,6 +35,15 @@ pub(crate) struct ViewGaussian {
     /// whose square misses it can skip the Gaussian with the same result.
     /// Infinite where no bound is found (the ellipsoid reaches z ≤ 0).
     pub reach: [f32; 4],
+    /// Not a kernel value: a view depth below which every point has α <
+    /// 1/255 for this Gaussian in the point pass (the near end of the same
+    /// ellipsoid, rounded down); −∞ where no bound is found.
+    pub near: f32,
+    /// Not a kernel value: an exponent below which α = min(0.99, o·e^power)
+    /// is surely under 1/255 (ln(1/(255·o)) less 1e-4, far more than the
+    /// rounding of e^power and the product), so the point pass can skip the
+    /// exponential; NaN (never taken) for a NaN opacity.
+    pub skip_below: f32,
 }
 
 /// The box of [`ViewGaussian::reach`]: the image-plane extent of the
@@ -44,7 +53,7 @@ pub(crate) struct ViewGaussian {
 /// camera's own Mahalanobis form), plus one pixel. The extent along u is
 /// where the planes x − a·z = 0 touch the ellipsoid:
 /// a²(t_z² − M_zz) − 2a(t_x t_z − M_xz) + t_x² − M_xx = 0, M = L·Σ.
-fn reach(sigma: &[[f64; 3]; 3], t: [f64; 3], o: f64, c_form: f64, cam: &Camera) -> [f32; 4] {
+fn reach(sigma: &[[f64; 3]; 3], t: [f64; 3], o: f64, c_form: f64, cam: &Camera) -> ([f32; 4], f32) {
     const ALL: [f32; 4] = [
         f32::NEG_INFINITY,
         f32::NEG_INFINITY,
@@ -58,16 +67,25 @@ fn reach(sigma: &[[f64; 3]; 3], t: [f64; 3], o: f64, c_form: f64, cam: &Camera) 
         f32::NEG_INFINITY,
     ];
     if o.is_nan() {
-        return ALL;
+        return (ALL, f32::NEG_INFINITY);
     }
     if o * 255.0 < 1.0 - 1e-4 {
-        return NONE;
+        return (NONE, f32::INFINITY);
     }
     let level = (2.0 * (255.0 * o).ln()).max(0.0) * (1.0 + 1e-4) + 1e-5 * c_form.abs() + 1e-3;
     let m = |i: usize, j: usize| level * sigma[i][j];
+    // the ellipsoid's view-depth range is t_z ± sqrt(M_zz); one part in
+    // 10⁶ below it, then rounded down to f32
+    let near = t[2] - m(2, 2).max(0.0).sqrt();
+    let near = if near.is_finite() {
+        let n = (near - 1e-6 * near.abs() - 1e-9) as f32;
+        if n as f64 > near { n.next_down() } else { n }
+    } else {
+        f32::NEG_INFINITY
+    };
     let den = t[2] * t[2] - m(2, 2);
     if !(t[2] > 0.0 && den > 0.0) {
-        return ALL;
+        return (ALL, near);
     }
     let span = |k: usize, f: f64, c: f64| -> Option<(f64, f64)> {
         let b = t[k] * t[2] - m(k, 2);
@@ -82,9 +100,9 @@ fn reach(sigma: &[[f64; 3]; 3], t: [f64; 3], o: f64, c_form: f64, cam: &Camera) 
         (Some((u0, u1)), Some((v0, v1)))
             if u0.is_finite() && u1.is_finite() && v0.is_finite() && v1.is_finite() =>
         {
-            [u0 as f32, v0 as f32, u1 as f32, v1 as f32]
+            ([u0 as f32, v0 as f32, u1 as f32, v1 as f32], near)
         }
-        _ => ALL,
+        _ => (ALL, near),
     }
 }
 
@@ -198,16 +216,26 @@ pub(crate) fn preprocess(
     let sigma: [[f64; 3]; 3] = std::array::from_fn(|a| {
         std::array::from_fn(|b| (0..3).map(|c| qm[a][c] * var[c] * qm[b][c]).sum())
     });
+    let (reach, near) = reach(&sigma, t, opacity as f64, v2g[9] as f64, cam);
     Some((
         ViewGaussian {
             v2g,
             opacity,
             rgb,
-            reach: reach(&sigma, t, opacity as f64, v2g[9] as f64, cam),
+            reach,
+            near,
+            skip_below: skip_below(opacity),
         },
         rect,
         depth,
     ))
+}
+
+/// [`ViewGaussian::skip_below`] of opacity `o`, rounded down to f32.
+fn skip_below(o: f32) -> f32 {
+    let e = -(255.0 * o as f64).ln() - 1e-4;
+    let f = e as f32;
+    if f as f64 > e { f.next_down() } else { f }
 }
 
 /// `computeView2Gaussian` from the camera-space axes `qm` (columns), the
