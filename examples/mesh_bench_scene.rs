@@ -47,6 +47,7 @@ use std::io::{Cursor, Write};
 use std::path::{Path, PathBuf};
 
 use glam::{DMat4, DVec3};
+use splatkit::geom::scenes::synthetic::Torus;
 use splatkit::io::any::{load_mesh, save_gaussians, save_points};
 use splatkit::io::cameras::npz::encode_npy_f64;
 use splatkit::io::dtu::{ObsMask, write_obs_mask, write_plane};
@@ -56,8 +57,8 @@ use splatkit::io::write_output;
 use splatkit::model::crop::{Axis, CropVolume};
 use splatkit::model::{Camera, Mesh, PointCloud};
 use splatkit::testing::{
-    cameras_around, flat_gaussians, sphere_surface_points, sphere_texture, textured_photos,
-    torus_surface_points, uv_sphere,
+    cameras_around, flat_gaussians, sphere_surface_points, sphere_texture, torus_surface_points,
+    uv_sphere, write_photos,
 };
 
 /// Millimetres per scene unit in the DTU layout.
@@ -119,7 +120,11 @@ fn err<E: std::fmt::Display>(e: E) -> String {
 fn truth(shape: &str) -> Res<Mesh> {
     match shape {
         "sphere" => Ok(uv_sphere(256, 1.0)),
-        "torus" => Ok(torus_mesh(1024, 384)),
+        "torus" => Ok(Torus {
+            major: RING,
+            minor: TUBE,
+        }
+        .mesh(1024, 384)),
         "bunny" => {
             let path = std::env::var_os("BUNNY")
                 .map(PathBuf::from)
@@ -146,39 +151,10 @@ fn truth(shape: &str) -> Res<Mesh> {
     }
 }
 
-/// Torus about the y axis with `nu` segments around the ring and `nv`
-/// around the tube; faces counter-clockwise seen from outside.
-fn torus_mesh(nu: usize, nv: usize) -> Mesh {
-    use std::f64::consts::TAU;
-    let mut v = Vec::with_capacity(nu * nv);
-    for i in 0..nu {
-        let u = TAU * i as f64 / nu as f64;
-        let radial = DVec3::new(u.cos(), 0.0, u.sin());
-        for j in 0..nv {
-            let t = TAU * j as f64 / nv as f64;
-            let n = radial * t.cos() + DVec3::Y * t.sin();
-            v.push((radial * RING + n * TUBE).as_vec3().to_array());
-        }
-    }
-    let id = |i: usize, j: usize| ((i % nu) * nv + j % nv) as u32;
-    let mut f = Vec::with_capacity(2 * nu * nv);
-    for i in 0..nu {
-        for j in 0..nv {
-            f.push([id(i, j), id(i, j + 1), id(i + 1, j + 1)]);
-            f.push([id(i, j), id(i + 1, j + 1), id(i + 1, j)]);
-        }
-    }
-    Mesh::new(v, f)
-}
-
 fn bounds(v: &[[f32; 3]]) -> (DVec3, DVec3) {
-    v.iter().fold(
-        (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
-        |(lo, hi), p| {
-            let p = DVec3::from_array(p.map(f64::from));
-            (lo.min(p), hi.max(p))
-        },
-    )
+    let (lo, hi) = splatkit::model::mesh::bounds(v).unwrap_or_default();
+    let d = |p: [f32; 3]| DVec3::from_array(p.map(f64::from));
+    (d(lo), d(hi))
 }
 
 fn samples(m: &Mesh, count: usize, seed: u64) -> Res<Vec<[f64; 3]>> {
@@ -215,18 +191,7 @@ fn photos(shape: &str, out: &Path, views: usize, size: u32) -> Res<()> {
     let m = truth(shape)?;
     let cams = cameras_around(views, 3.5, size, 1.25 * size as f64);
     let data = out.join("data");
-    mkdir(&data.join("images"))?;
-    for v in textured_photos(&m, &cams) {
-        let bytes: Vec<u8> = v
-            .image
-            .iter()
-            .flatten()
-            .map(|&x| splatkit::io::image::to_u8(x))
-            .collect();
-        let p = data.join("images").join(format!("{}.png", v.camera.name));
-        png(&p, size as usize, size as usize, 3, &bytes)?;
-    }
-    splatkit::io::cameras::write_gs_json(&data.join("cameras.json"), &cams).map_err(err)?;
+    write_photos(&data, &m, &cams).map_err(err)?;
     save_points(
         &data.join("input.ply"),
         &cloud(&samples(&m, 2000, 3)?, 1.0, true),

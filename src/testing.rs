@@ -202,26 +202,9 @@ pub fn write_sphere_dataset(
     size: u32,
     points: usize,
 ) -> crate::Result<()> {
-    use crate::io::write_output;
     let truth = uv_sphere(48, 1.0);
     let cams = cameras_around(n, 3.5, size, 1.25 * size as f64);
-    let views = textured_photos(&truth, &cams);
-    std::fs::create_dir_all(dir.join("images"))
-        .map_err(|e| crate::Error::invalid(format!("{}: {e}", dir.display())))?;
-    for v in &views {
-        let bytes: Vec<u8> = v
-            .image
-            .iter()
-            .flatten()
-            .map(|&x| crate::io::image::to_u8(x))
-            .collect();
-        let path = dir.join("images").join(format!("{}.png", v.camera.name));
-        let name = path.display().to_string();
-        write_output(&path, |w| {
-            crate::io::image::write_png8(w, &name, size as usize, size as usize, 3, &bytes)
-        })?;
-    }
-    crate::io::cameras::gs_json::write_gs_json(&dir.join("cameras.json"), &cams)?;
+    write_photos(dir, &truth, &cams)?;
     if points > 0 {
         crate::io::any::save_points(
             &dir.join("input.ply"),
@@ -230,6 +213,28 @@ pub fn write_sphere_dataset(
         )?;
     }
     Ok(())
+}
+
+/// Writes `dir/images/<camera>.png` ([`textured_photos`] of `truth`, 8-bit
+/// RGB) and `dir/cameras.json` (3DGS layout) for `cams`.
+pub fn write_photos(dir: &std::path::Path, truth: &Mesh, cams: &[Camera]) -> crate::Result<()> {
+    std::fs::create_dir_all(dir.join("images"))
+        .map_err(|e| crate::Error::invalid(format!("{}: {e}", dir.display())))?;
+    for v in textured_photos(truth, cams) {
+        let bytes: Vec<u8> = v
+            .image
+            .iter()
+            .flatten()
+            .map(|&x| crate::io::image::to_u8(x))
+            .collect();
+        let path = dir.join("images").join(format!("{}.png", v.camera.name));
+        let name = path.display().to_string();
+        let (w, h) = (v.camera.width as usize, v.camera.height as usize);
+        crate::io::write_output(&path, |out| {
+            crate::io::image::write_png8(out, &name, w, h, 3, &bytes)
+        })?;
+    }
+    crate::io::cameras::gs_json::write_gs_json(&dir.join("cameras.json"), cams)
 }
 
 /// Distance of a mesh to the unit sphere, independent of any reconstruction
