@@ -135,28 +135,14 @@ impl Default for IntegrateSettings {
 /// A pixel's pass: the Gaussians its points walk, and its colour.
 #[derive(Debug, PartialEq)]
 struct Pass {
-    /// The contributors in list order, with what the point pass reads of
-    /// each, side by side (a pixel's points, and the search steps that come
-    /// back to the pixel, read them in sequence).
-    walk: Vec<WalkEntry>,
+    /// The contributors (indices into the view's kept Gaussians), in list
+    /// order.
+    walk: Vec<u32>,
+    /// Per walk position k, the smallest [`ViewGaussian::near`] of the walk
+    /// from k on: a point shallower than it gets nothing more from the walk.
+    tail_near: Vec<f32>,
     /// The pixel's colour over the background.
     rgb: [f32; 3],
-}
-
-/// One contributor of a pixel's walk, as the point pass reads it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct WalkEntry {
-    /// [`ViewGaussian::v2g`].
-    v2g: [f32; 10],
-    /// [`ViewGaussian::opacity`].
-    opacity: f32,
-    /// [`ViewGaussian::near`].
-    near: f32,
-    /// [`ViewGaussian::skip_below`].
-    skip_below: f32,
-    /// The smallest `near` of the walk from this entry on: a point
-    /// shallower than it gets nothing more from the walk.
-    tail_near: f32,
 }
 
 /// The pixel passes a view keeps (by pixel id), within a byte limit.
@@ -295,10 +281,7 @@ impl PreparedView {
             .map(std::sync::Arc::new)
             .collect();
         if self.cache.limit > 0 {
-            let add: usize = fresh
-                .iter()
-                .map(|p| p.walk.len() * std::mem::size_of::<WalkEntry>() + 80)
-                .sum();
+            let add: usize = fresh.iter().map(|p| p.walk.len() * 8 + 80).sum();
             if self.cache.bytes.fetch_add(add, Ordering::Relaxed) + add <= self.cache.limit {
                 let mut c = self.cache.passes.lock().expect("cache lock");
                 for (p, f) in missing.iter().zip(&fresh) {
@@ -362,9 +345,10 @@ impl PreparedView {
         let r = self.ray(x, y);
         let mut acc = 0.0f32;
         let mut tr = 1.0f32;
-        for g in &pass.walk {
+        for (&gi, &tail_near) in pass.walk.iter().zip(&pass.tail_near) {
+            let g = &self.binned.gaussians[gi as usize];
             if self.use_reach {
-                if depth < g.tail_near {
+                if depth < tail_near {
                     break;
                 }
                 if depth < g.near {

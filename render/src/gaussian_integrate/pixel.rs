@@ -10,7 +10,7 @@
 //! tests in list order: the same operations as the per-pixel kernel.
 
 use super::view::ViewGaussian;
-use super::{MAX_CONTRIBUTORS, Pass, PreparedView, RAY_NEAR, WalkEntry, quadratic};
+use super::{MAX_CONTRIBUTORS, Pass, PreparedView, RAY_NEAR, quadratic};
 use crate::tiles::TILE;
 
 /// The state-independent part of one ray's step: α of Gaussian `g` on ray
@@ -107,25 +107,17 @@ impl PixelState {
             walk.push(gi);
         }
         let rgb = std::array::from_fn(|ch| self.c[ch] + self.ts[0] * bg[ch]);
-        let mut walk: Vec<WalkEntry> = walk
-            .iter()
-            .map(|&gi| {
-                let g = &gaussians[gi as usize];
-                WalkEntry {
-                    v2g: g.v2g,
-                    opacity: g.opacity,
-                    near: g.near,
-                    skip_below: g.skip_below,
-                    tail_near: f32::INFINITY,
-                }
-            })
-            .collect();
+        let mut tail_near = vec![f32::INFINITY; walk.len()];
         let mut m = f32::INFINITY;
-        for e in walk.iter_mut().rev() {
-            m = m.min(e.near);
-            e.tail_near = m;
+        for (t, &gi) in tail_near.iter_mut().zip(&walk).rev() {
+            m = m.min(gaussians[gi as usize].near);
+            *t = m;
         }
-        Pass { walk, rgb }
+        Pass {
+            walk,
+            tail_near,
+            rgb,
+        }
     }
 }
 
