@@ -48,7 +48,7 @@ use crate::train::gaussians::{GaussianParams, GaussianTrainer, Regularize};
 use crate::train::photometric::Eval;
 use crate::train::session::{self, Event, Outcome};
 use crate::train::trainer::Trainer;
-use crate::train::triangles::init::{InitParams, init_triangles};
+use crate::train::triangles::init::{InitParams, grey_seeds, init_triangles};
 use crate::train::triangles::{Preset, TriangleParams, TriangleTrainer};
 
 /// Arguments of `train`.
@@ -562,7 +562,16 @@ fn init_soup(args: &TriangleArgs, p: &Prepared) -> anyhow::Result<TriangleSoup> 
         dome: args.dome,
         ..Default::default()
     };
-    let soup = init_triangles(&p.points, &init, &mut seeded(a.seed))
+    // random points seed grey triangles, as the reference's do
+    // (triangles::init module docs)
+    let grey;
+    let seeds = if p.random_init {
+        grey = grey_seeds(&p.points);
+        &grey
+    } else {
+        &p.points
+    };
+    let soup = init_triangles(seeds, &init, &mut seeded(a.seed))
         .with_context(|| format!("initialising from {}", points_source(p, a)))?;
     if soup.len() > args.max_shapes {
         return Err(crate::cli::usage(format!(
