@@ -18,7 +18,14 @@
 //! 4. accumulate the view's per-triangle statistics and, every
 //!    `interval` iterations, densify while densifying, prune after: the
 //!    [`mcmc::Mcmc`] strategy, moments following through
-//!    [`crate::train::strategy::apply`].
+//!    [`crate::train::strategy::apply`]. The edit due after iteration N is
+//!    made at the start of iteration N + 1, so what is evaluated, saved or
+//!    checkpointed at N is the model before it: the reference's loop calls
+//!    `training_report` and `scene.save` before it densifies, and its model
+//!    saved at 30,000 is the one before the 30,000 prune (the last
+//!    iteration's edit is never made here either). Evaluated right after
+//!    the edit, a held-out PSNR dipped at every evaluation that fell on a
+//!    densification step (new clones at half opacity, not yet settled).
 //!
 //! Schedules: the reference's milestones are for 30,000 iterations
 //! (densify 500 → 25,000 every 500, normal term from 5,000, SH band every
@@ -326,6 +333,18 @@ impl TriangleTrainer {
     /// render, loss, backward, Adam, the strategy's edits.
     fn step_impl(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let p = self.params.clone();
+        // the strategy's edit due after the previous iteration, made before
+        // this one renders: an evaluation or a save at iteration N sees the
+        // model before the N-th edit, as the reference's loop reports and
+        // saves before it densifies (module docs)
+        if self.iteration > 0 {
+            let ctx = StepContext {
+                iteration: self.iteration,
+                train_views: train.len(),
+            };
+            let done = strategy::apply(&mut self.strategies, ctx, &mut self.soup, &mut self.groups);
+            self.edits.extend(done.reports);
+        }
         let vi = view_at(train, p.seed, self.iteration);
         let mut s = self.settings();
         let (view, bg) = view_for_step(
@@ -414,12 +433,6 @@ impl TriangleTrainer {
         pg.apply(&mut self.groups, &mut self.soup);
         strategy::observe_all(&mut self.strategies, self.iteration + 1, || stats);
         self.iteration += 1;
-        let ctx = StepContext {
-            iteration: self.iteration,
-            train_views: train.len(),
-        };
-        let done = strategy::apply(&mut self.strategies, ctx, &mut self.soup, &mut self.groups);
-        self.edits.extend(done.reports);
         StepStats {
             iteration: self.iteration - 1,
             view: vi,
