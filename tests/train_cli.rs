@@ -126,6 +126,78 @@ fn deterministic_and_resume_exact() {
     }
 }
 
+/// `--schedule reference`: the milestones stay at the reference's
+/// iteration numbers, so `--iterations N --schedule reference` is the run
+/// `--iterations R --stop-at N` (R the reference length: 30,000 for
+/// triangles, 15,000 for SuGaR's coarse stage), byte for byte, and its
+/// edits fall where the reference's do: triangles densify first at 1,000
+/// (every 500 after the 500th), Gaussians every 100 from 600.
+#[test]
+fn reference_schedule_is_the_full_course_stopped_early() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(dir.path());
+    for (model, n, full, edits) in [
+        (
+            "triangles",
+            "1050",
+            "30000",
+            &["iteration 1000: mcmc densify: "][..],
+        ),
+        (
+            "gaussians",
+            "650",
+            "15000",
+            &["iteration 600: adc densify: "][..],
+        ),
+    ] {
+        let extra: &[&str] = if model == "gaussians" {
+            &["--regularize", "density", "--samples", "500"]
+        } else {
+            &["--max-shapes", "600"]
+        };
+        let a = dir.path().join(format!("{model}_ref"));
+        let b = dir.path().join(format!("{model}_stop"));
+        let mut args = vec![model, p(&d), "-o", p(&a), "--iterations", n];
+        args.extend(["--schedule", "reference", "--eval-every", "0", "-v"]);
+        args.extend(extra);
+        let out = run("train", &args, None);
+        succeeds(&out);
+        let log = String::from_utf8_lossy(&out.stderr);
+        for w in edits {
+            assert!(log.contains(w), "{model}: no {w:?} in\n{log}");
+        }
+        // nothing before the reference's first step (the scaled schedule of
+        // this length would have edited from iteration 200 / 18 on)
+        let first = log.find("iteration ").map(|i| &log[i..i + 16]);
+        assert!(
+            first.is_some_and(|f| edits[0].starts_with(f)),
+            "{model}: first edit {first:?}"
+        );
+        let mut args = vec![model, p(&d), "-o", p(&b), "--iterations", full];
+        args.extend(["--stop-at", n, "--eval-every", "0", "-q"]);
+        args.extend(extra);
+        succeeds(&run("train", &args, None));
+        let f = format!("point_cloud/iteration_{n}");
+        for f in [
+            format!(
+                "{f}/{}",
+                if model == "triangles" {
+                    "triangles.ply"
+                } else {
+                    "point_cloud.ply"
+                }
+            ),
+            "checkpoint/model.ply".into(),
+        ] {
+            assert_eq!(
+                std::fs::read(a.join(&f)).unwrap(),
+                std::fs::read(b.join(&f)).unwrap(),
+                "{model} {f}"
+            );
+        }
+    }
+}
+
 /// The outputs are read by the other tools: `info` on the triangle
 /// checkpoint and soup PLY, `splat2points` on the Gaussian run folder.
 #[test]

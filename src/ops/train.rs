@@ -67,6 +67,7 @@ pub enum TrainModel {
   train triangles dtu_scan24/ -o run/ --indoor --downscale 4 --max-shapes 200000
   train triangles scene/ -o run/ --game-engine
   train triangles scene/ -o run/ --iterations 30000 --resume run/
+  train triangles scene/ -o run/ --iterations 7000 --schedule reference
 
 Outputs in OUT_DIR: point_cloud/iteration_N/{point_cloud_state_dict.pt, triangles.ply},
 cameras.json, cfg_args, input.ply, metrics.json, checkpoint/.")]
@@ -76,6 +77,7 @@ cameras.json, cfg_args, input.ply, metrics.json, checkpoint/.")]
   train gaussians scene/ -o run/                          # vanilla 3DGS, 30000 iterations
   train gaussians scene/ -o run/ --regularize density     # SuGaR coarse, 15000 iterations
   train gaussians dtu_scan24/ -o run/ --regularize sdf --downscale 4
+  train gaussians scene/ -o run/ --iterations 7000 --schedule reference
   splatkit splat2points run/ -o - | splatkit poisson - -o mesh.ply
 
 Outputs in OUT_DIR: point_cloud/iteration_N/point_cloud.ply, cameras.json, cfg_args,
@@ -93,9 +95,19 @@ pub struct DataArgs {
     /// Output folder.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Iterations (default 30000; 15000 for SuGaR's coarse stage).
+    /// Iterations (default 30000; 15000 for SuGaR's coarse stage). With
+    /// the default `--schedule scaled`, every milestone of the reference
+    /// schedule (densification start, interval and end, SH bands, learning
+    /// rate decay, later phases) is multiplied by N / 30000 (N / 15000 for
+    /// SuGaR), so a short run goes through the whole course.
     #[arg(long)]
     pub iterations: Option<u64>,
+    /// `scaled`: milestones scaled to --iterations (above); `reference`:
+    /// at the reference's iteration numbers whatever --iterations is, as
+    /// 3DGS's, Triangle Splatting's and OpenSplat's own iteration counts
+    /// behave (a shorter run is the start of the full course).
+    #[arg(long, value_enum, default_value_t = ScheduleArg::Scaled)]
+    pub schedule: ScheduleArg,
     /// Divide the cameras' resolution by this integer.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64), conflicts_with = "resolution")]
     pub downscale: u32,
@@ -169,6 +181,13 @@ pub struct TriangleArgs {
     /// Add the dome of extra seeds (outdoor scenes).
     #[arg(long)]
     pub dome: bool,
+}
+
+/// How milestones follow `--iterations`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ScheduleArg {
+    Scaled,
+    Reference,
 }
 
 /// SuGaR's regularisers on the command line.
@@ -684,6 +703,7 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     params.mcmc.max_shapes = args.max_shapes;
     params.background = background(a);
     params.random_background = a.random_background;
+    params.reference_schedule = a.schedule == ScheduleArg::Reference;
     params.seed = a.seed;
     let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
         "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(), "dome": args.dome,
@@ -750,6 +770,7 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
     params.background = background(a);
     params.white_background = a.white_background;
     params.random_background = a.random_background;
+    params.reference_schedule = a.schedule == ScheduleArg::Reference;
     params.seed = a.seed;
     let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
         "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(),

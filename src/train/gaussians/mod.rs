@@ -33,6 +33,9 @@
 //!
 //! A run of N iterations scales every milestone by N / (30,000 or 15,000),
 //! rounded (at least 1); at the reference length they are the reference's.
+//! [`GaussianParams::reference_schedule`] (`--schedule reference`) keeps
+//! them at the reference's numbers, as 3DGS's, SuGaR's and OpenSplat's own
+//! iteration counts do (a shorter run is then the start of the full course).
 //! Regulariser samples per iteration: SuGaR draws 1,000,000; here
 //! `samples` (default 50,000 — a CPU budget, stated as a departure).
 
@@ -91,6 +94,11 @@ pub struct GaussianParams {
     /// put on it; 3DGS's `--random_background`).
     #[serde(default)]
     pub random_background: bool,
+    /// Milestones at the reference's iteration numbers whatever the run's
+    /// length (`--schedule reference`); default: scaled by `iterations` /
+    /// [`GaussianParams::reference_length`].
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub reference_schedule: bool,
     /// White background: also reset opacities at the start of densification.
     pub white_background: bool,
     pub seed: u64,
@@ -117,6 +125,7 @@ impl GaussianParams {
             samples: 50_000,
             background: [0.0; 3],
             random_background: false,
+            reference_schedule: false,
             white_background: false,
             seed: 0,
         }
@@ -131,8 +140,12 @@ impl GaussianParams {
         }
     }
 
-    /// A reference milestone scaled to this run.
+    /// A reference milestone, scaled to this run unless
+    /// `reference_schedule`.
     pub fn at(&self, milestone: u64) -> u64 {
+        if self.reference_schedule {
+            return milestone.max(1);
+        }
         ((milestone as f64 * self.iterations as f64 / self.reference_length() as f64).round()
             as u64)
             .max(1)

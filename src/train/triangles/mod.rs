@@ -32,7 +32,12 @@
 //! 1,000, game-engine phase after 25,000 with pruning thresholds 0.1 → 0.7
 //! after 29,000 and σ ≥ 1 removed after 28,000). A run of N iterations
 //! multiplies each by N / 30,000 (rounded, at least 1), so a short run
-//! follows the same course; at N = 30,000 they are the reference's. The
+//! follows the same course; at N = 30,000 they are the reference's.
+//! [`TriangleParams::reference_schedule`] (`--schedule reference`) keeps
+//! them at the reference's numbers instead, as the reference's own
+//! `--iterations` does (a 3,000-iteration run is then the first 3,000
+//! iterations of the 30,000 course: five growth steps, vertex learning rate
+//! still at 63 % of its start, no pruning phase). The
 //! densification interval is never shorter than one pass over the training
 //! views (its statistics need every view) nor than [`MIN_INTERVAL`] (200)
 //! iterations: scaling the reference's 500 down to a few dozen made a short
@@ -107,6 +112,11 @@ pub struct TriangleParams {
     /// put on it; 3DGS's `--random_background`).
     #[serde(default)]
     pub random_background: bool,
+    /// Milestones at the reference's iteration numbers whatever the run's
+    /// length (`--schedule reference`); default: scaled by
+    /// `iterations` / 30,000 (see the module docs).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub reference_schedule: bool,
     pub seed: u64,
 }
 
@@ -136,13 +146,19 @@ impl TriangleParams {
             },
             background: [0.0; 3],
             random_background: false,
+            reference_schedule: false,
             seed: 0,
         }
     }
 
-    /// A milestone of the reference schedule scaled to this run.
+    /// A milestone of the reference schedule, scaled to this run unless
+    /// `reference_schedule`.
     pub fn at(&self, milestone: u64) -> u64 {
-        scaled(milestone, self.iterations)
+        if self.reference_schedule {
+            milestone.max(1)
+        } else {
+            scaled(milestone, self.iterations)
+        }
     }
 }
 
@@ -284,7 +300,7 @@ impl TriangleTrainer {
                 lr: LrSchedule::Exponential {
                     init: p.lr_vertices,
                     end: p.lr_vertices / 100.0,
-                    steps: p.iterations,
+                    steps: p.at(REFERENCE_ITERATIONS),
                 },
             },
             GroupSpec {
