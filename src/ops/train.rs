@@ -22,7 +22,8 @@
 //! `input.ply`); otherwise `--init-points` random points (default 100,000)
 //! uniform in a cube about the point the training cameras look at (the
 //! least-squares meeting point of their optical axes; half-size half their
-//! mean distance to it), with random colours, from `--seed` — the
+//! mean distance to it), grey (127/255, what 3DGS's and Triangle
+//! Splatting's readers make of their random colours), from `--seed` — the
 //! references' rule for synthetic scenes (a fixed ±1.3 cube), made
 //! scale-free.
 
@@ -181,6 +182,14 @@ pub struct TriangleArgs {
     /// Add the dome of extra seeds (outdoor scenes).
     #[arg(long)]
     pub dome: bool,
+    /// Draw triangles whose projected inradius is at least this many
+    /// pixels, in (0, 1] (Triangle Splatting's kernel: 1). Lower values
+    /// help low-resolution photos, where the kernel's rule drops the
+    /// triangles seen edge-on at the silhouette; render such a model with
+    /// `render --min-inradius` of the same value.
+    #[arg(long, default_value_t = 1.0, value_name = "PX",
+          value_parser = crate::train::triangles::min_inradius_arg)]
+    pub min_inradius: f64,
 }
 
 /// How milestones follow `--iterations`.
@@ -334,10 +343,10 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
         _ => {
             let cams: Vec<&Camera> = train.iter().map(|&i| &data.views[i].camera).collect();
             let (lo, hi) = init_box(&cams);
-            (
-                random_points(a.init_points, lo, hi, &mut seeded(a.seed)),
-                true,
-            )
+            // grey, as 3DGS's and Triangle Splatting's readers make their
+            // random points (triangles::init::grey_seeds)
+            let pts = random_points(a.init_points, lo, hi, &mut seeded(a.seed));
+            (grey_seeds(&pts), true)
         }
     };
     Ok(Prepared {
@@ -581,16 +590,7 @@ fn init_soup(args: &TriangleArgs, p: &Prepared) -> anyhow::Result<TriangleSoup> 
         dome: args.dome,
         ..Default::default()
     };
-    // random points seed grey triangles, as the reference's do
-    // (triangles::init module docs)
-    let grey;
-    let seeds = if p.random_init {
-        grey = grey_seeds(&p.points);
-        &grey
-    } else {
-        &p.points
-    };
-    let soup = init_triangles(seeds, &init, &mut seeded(a.seed))
+    let soup = init_triangles(&p.points, &init, &mut seeded(a.seed))
         .with_context(|| format!("initialising from {}", points_source(p, a)))?;
     if soup.len() > args.max_shapes {
         return Err(crate::cli::usage(format!(
@@ -701,6 +701,7 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     let mut params = TriangleParams::preset(preset, iterations);
     params.game_engine = args.game_engine;
     params.mcmc.max_shapes = args.max_shapes;
+    params.min_inradius = args.min_inradius;
     params.background = background(a);
     params.random_background = a.random_background;
     params.reference_schedule = a.schedule == ScheduleArg::Reference;

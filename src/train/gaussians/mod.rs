@@ -16,7 +16,14 @@
 //!    density control every 100 iterations from 500 until the end of
 //!    densification, opacity reset every 3,000; SuGaR's prune,
 //!    [`SugarPrune`]), moments and statistics following through
-//!    [`crate::train::strategy::apply`].
+//!    [`crate::train::strategy::apply`]. The edits due after iteration N
+//!    are made at the start of iteration N + 1, so what is evaluated,
+//!    saved or checkpointed at N is the model before them, as in 3DGS's
+//!    loop (its `training_report` and `scene.save` come before the
+//!    densification block): a run of 3,000 iterations on the reference
+//!    schedule otherwise ended on the opacity reset due at 3,000 (held-out
+//!    8.8 dB after 40.7 at 2,000), and the last iteration's edits are
+//!    never made.
 //!
 //! Phases (reference iterations):
 //! - **vanilla 3DGS** (no `--regularize`): 30,000 iterations, densification
@@ -357,6 +364,22 @@ impl GaussianTrainer {
     /// strategies' edits.
     fn step_impl(&mut self, views: &[View], train: &[usize]) -> StepStats {
         let p = self.params.clone();
+        // the strategies' edits due after the previous iteration, made
+        // before this one renders: an evaluation, save or checkpoint at
+        // iteration N sees the model before the N-th edit, as 3DGS's loop
+        // reports and saves before its densification block (module docs)
+        if self.iteration > 0 {
+            let ctx = StepContext {
+                iteration: self.iteration,
+                train_views: train.len(),
+            };
+            let done =
+                strategy::apply(&mut self.strategies, ctx, &mut self.model, &mut self.groups);
+            if done.rows_changed {
+                self.nbrs = None; // indices into the old rows
+            }
+            self.edits.extend(done.reports);
+        }
         let it1 = self.iteration + 1; // the reference's 1-based iteration
         let vi = view_at(train, p.seed, self.iteration);
         let mut s = self.settings();
@@ -454,15 +477,6 @@ impl GaussianTrainer {
         }
         raw_grads(&self.model, &gg, &reg, d).apply(&mut self.groups, &mut self.model);
         self.iteration += 1;
-        let ctx = StepContext {
-            iteration: self.iteration,
-            train_views: train.len(),
-        };
-        let done = strategy::apply(&mut self.strategies, ctx, &mut self.model, &mut self.groups);
-        if done.rows_changed {
-            self.nbrs = None; // indices into the old rows
-        }
-        self.edits.extend(done.reports);
         StepStats {
             iteration: self.iteration - 1,
             view: vi,
