@@ -101,6 +101,12 @@ pub struct RasterSettings {
     /// The screen-space filter of the Gaussian rasteriser (default: 3DGS's
     /// 0.3 dilation).
     pub filter_2d: Filter2d,
+    /// Triangles: the smallest inradius r and largest vertex distance R
+    /// (pixels) a projected triangle may have and still be drawn. Triangle
+    /// Splatting's kernel culls r < 1 or R < 1 (the default, 1.0); a
+    /// smaller value also draws sub-pixel triangles (a departure, for
+    /// low-resolution training: docs/train.md, "Random initial points").
+    pub min_inradius: f64,
 }
 
 impl Default for RasterSettings {
@@ -109,6 +115,7 @@ impl Default for RasterSettings {
             background: [0.0; 3],
             near: 0.2,
             filter_2d: Filter2d::default(),
+            min_inradius: 1.0,
         }
     }
 }

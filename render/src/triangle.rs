@@ -196,7 +196,10 @@ pub(crate) fn project_tri_t<T: Real>(
         edges[i] = [nx, ny, d];
     }
     let phi_s = edges[0][0] * inc[0] + edges[0][1] * inc[1] + edges[0][2];
-    if !(1.0..=1600.0).contains(&big_r) || phi_s.val().is_nan() || phi_s.val() > -1.0 {
+    // the kernel's size culls: R outside [1, 1600] px or inradius under
+    // 1 px (`min_inradius`, 1 unless set lower)
+    let m = s.min_inradius;
+    if !(m..=1600.0).contains(&big_r) || phi_s.val().is_nan() || phi_s.val() > -m {
         return None;
     }
     let ev = edges.map(|e| e.map(|v| v.val()));
@@ -509,6 +512,35 @@ mod tests {
             sh: vec![rgb.map(rgb_to_sh)],
             sh_degree: 0,
         }
+    }
+
+    /// The size cull: a triangle of inradius 0.600 px (equilateral-ish,
+    /// side 2.08 px, height 1.8 px, R = 1.2 px) is culled by the kernel's
+    /// 1-px rule (nothing drawn, no projected entry) and drawn with
+    /// `min_inradius` 0.5 (some pixel centre inside gets α > 0), and again
+    /// culled at 0.61 (just above its inradius).
+    #[test]
+    fn min_inradius_culls_sub_pixel_triangles() {
+        let cam = test_camera(64, 48, 80.0);
+        let v = [
+            [-0.052f32, -0.03, 4.0],
+            [0.052, -0.03, 4.0],
+            [0.0, 0.06, 4.0],
+        ];
+        let t = one(v, 1.0, 0.9, [1.0, 1.0, 1.0]);
+        let drawn = |m: f64| {
+            let s = RasterSettings {
+                min_inradius: m,
+                ..Default::default()
+            };
+            let (img, st) = rasterize(&t, &cam, &s);
+            (img.alpha.iter().sum::<f32>(), st.proj.len())
+        };
+        assert_eq!(drawn(1.0), (0.0, 0));
+        assert_eq!(drawn(0.61), (0.0, 0));
+        let (a, n) = drawn(0.5);
+        assert_eq!(n, 1);
+        assert!(a > 0.0, "alpha {a}");
     }
 
     /// σ → 0: the window is 1 wherever φ < 0, so α = opacity exactly on the

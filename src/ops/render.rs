@@ -100,6 +100,11 @@ pub struct RenderArgs {
     /// Near plane (camera z) for splats and meshes.
     #[arg(long, default_value_t = 0.2, value_parser = nonneg_f64)]
     pub near: f64,
+    /// Triangle splats: draw triangles whose projected inradius is at least
+    /// this many pixels (Triangle Splatting's kernel: 1); give the value a
+    /// model was trained with (`train triangles --min-inradius`).
+    #[arg(long, default_value_t = 1.0, value_parser = crate::train::triangles::min_inradius_arg)]
+    pub min_inradius: f64,
     #[command(flatten)]
     pub filter: Filter2dArgs,
     #[command(flatten)]
@@ -566,6 +571,7 @@ fn render_views(
         background: [args.background[0], args.background[1], args.background[2]],
         near: args.near,
         filter_2d,
+        min_inradius: args.min_inradius,
     };
     let depth_ratio = match (args.depth_ratio, args.depth) {
         (Some(r), _) => r as f32,

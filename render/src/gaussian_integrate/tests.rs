@@ -262,6 +262,7 @@ fn colour_matches_rasteriser_at_the_centre_pixel() {
         background: bg,
         near: 0.2,
         filter_2d: Filter2d::Mip { kernel_size: 0.0 },
+        ..Default::default()
     };
     let img = render(&g, &cam, &rs);
     let want = img.rgb[20 * 64 + 40];

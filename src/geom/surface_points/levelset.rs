@@ -262,6 +262,7 @@ fn depth_and_hits(
                 background: [0.0; 3],
                 near: opts.near,
                 filter_2d: opts.filter_2d,
+                ..Default::default()
             };
             // SuGaR drops depth < 0; a depth of exactly 0 would put p at the
             // camera centre (no ray direction), so it is dropped too
@@ -275,6 +276,7 @@ fn depth_and_hits(
                 background: [0.0; 3],
                 near: opts.near,
                 filter_2d: opts.filter_2d,
+                ..Default::default()
             };
             let img = gaussian::render(g, cam, &s);
             let w = cam.width as usize;
@@ -343,6 +345,7 @@ pub fn sample_levelset(
         background: [0.0; 3],
         near: opts.near,
         filter_2d: opts.filter_2d,
+        ..Default::default()
     };
     for (ci, cam) in cams.iter().enumerate() {
         let w = cam.width as usize;

@@ -209,6 +209,7 @@ pub fn depth_points(
         background: [0.0; 3],
         near,
         filter_2d,
+        ..Default::default()
     };
     depth_points_of(
         |cam| gaussian::render(&dc, cam, &s),

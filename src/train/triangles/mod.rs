@@ -117,7 +117,34 @@ pub struct TriangleParams {
     /// `iterations` / 30,000 (see the module docs).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub reference_schedule: bool,
+    /// [`RasterSettings::min_inradius`] while training and evaluating
+    /// (pixels; 1, the reference kernel's, unless set lower).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub min_inradius: f64,
     pub seed: u64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
+}
+
+/// Parses `--min-inradius`: a pixel count in (0, 1] (above 1 would cull
+/// triangles the reference draws).
+pub fn min_inradius_arg(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number of pixels"))?;
+    if v > 0.0 && v <= 1.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{s}: the smallest drawn inradius must lie in (0, 1] pixels"
+        ))
+    }
 }
 
 impl TriangleParams {
@@ -147,6 +174,7 @@ impl TriangleParams {
             background: [0.0; 3],
             random_background: false,
             reference_schedule: false,
+            min_inradius: 1.0,
             seed: 0,
         }
     }
@@ -335,6 +363,7 @@ impl TriangleTrainer {
     fn settings(&self) -> RasterSettings {
         RasterSettings {
             background: self.params.background,
+            min_inradius: self.params.min_inradius,
             ..Default::default()
         }
     }

@@ -81,3 +81,16 @@ fn trains_on_a_generated_sphere() {
     assert!(e1.psnr > e0.psnr + 8.0, "{} -> {}", e0.psnr, e1.psnr);
     assert!(t.soup.len() > n0);
 }
+
+/// `--min-inradius` takes a pixel count in (0, 1]: zero, negatives, values
+/// above the kernel's 1 px, NaN and words are refused with the value named.
+#[test]
+fn min_inradius_range() {
+    for ok in ["1", "0.5", "1e-3"] {
+        assert!(super::min_inradius_arg(ok).is_ok(), "{ok}");
+    }
+    for bad in ["0", "-0.5", "1.5", "NaN", "inf", "px"] {
+        let e = super::min_inradius_arg(bad).unwrap_err();
+        assert!(e.contains(bad), "{bad}: {e}");
+    }
+}

@@ -103,6 +103,7 @@ pub fn render_view(
         background: [0.0; 3],
         near,
         filter_2d,
+        ..Default::default()
     };
     let mut v = match scene {
         FusionScene::Gaussians(g) => splat_view(&gaussian::render(g, cam, &s), depth_ratio),
