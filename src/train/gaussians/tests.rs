@@ -35,8 +35,11 @@ fn trains_on_a_generated_sphere() {
     assert!(t.model.len() > 800);
 }
 
-/// The SuGaR phases run: after the 9,000 milestone every Gaussian has
-/// α ≥ 0.5 at the prune, and each regulariser yields a finite loss.
+/// The SuGaR phases run: the prune due after the 9,000 milestone (made at
+/// the start of the next iteration, so the model evaluated at 9,000 is the
+/// one before it) keeps exactly the Gaussians of α ≥ 0.5 at that moment
+/// (logit ≥ 0; all of them if none is), and each regulariser yields a
+/// finite loss.
 #[test]
 fn sugar_phases_prune_and_regularize() {
     let views = scene(16, 32);
@@ -51,13 +54,25 @@ fn sugar_phases_prune_and_regularize() {
         p.samples = 2000;
         let mut t = GaussianTrainer::new(g, p);
         let mut last = StepStats::default();
+        let at = t.params.at(9_000);
+        let mut due = None;
         for _ in 0..1200 {
             last = t.step(&views, &train);
-            if t.iteration() == t.params.at(9_000) {
-                assert!(t.model.opacity_logits.iter().all(|&o| o >= 0.0));
-                assert!(!t.model.is_empty());
+            if t.iteration() == at {
+                let o = &t.model.opacity_logits;
+                let kept = o.iter().filter(|&&v| v >= 0.0).count();
+                due = Some((o.len(), if kept > 0 { kept } else { o.len() }));
             }
         }
+        let (before, after) = due.expect("the run passes the 9,000 milestone");
+        let prune: Vec<_> = t.edits.iter().filter(|e| e.strategy == "sugar").collect();
+        assert_eq!(prune.len(), 1, "{mode:?}");
+        assert_eq!(
+            (prune[0].iteration, prune[0].before, prune[0].after),
+            (at, before, after),
+            "{mode:?}"
+        );
+        assert!(after > 0);
         assert!(
             last.regularizer.is_finite() && last.regularizer > 0.0,
             "{mode:?}: {last:?}"
