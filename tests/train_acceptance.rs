@@ -21,6 +21,8 @@
 //! --workspace` stays fast; `cargo test --workspace -- --ignored` runs it,
 //! and `.ci/run` does so on every change (docs/ARCHITECTURE.md, "Tests").
 
+mod common;
+
 use std::path::Path;
 
 use splatkit::io::any::load_mesh;
@@ -45,16 +47,9 @@ fn chamfer(mesh: &Path) -> f64 {
     0.5 * (a + c)
 }
 
-/// Runs a command without the CLI tests' address-space limit (training
-/// and meshing need more than 2 GB of address space with rayon's stacks).
+/// Runs a command without the CLI tests' address-space limit.
 fn cmd(name: &str, args: &[&str]) {
-    let exe = assert_cmd::cargo::cargo_bin(name);
-    let out = std::process::Command::new(exe).args(args).output().unwrap();
-    assert!(
-        out.status.success(),
-        "{name}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::run_ok(name, args);
 }
 
 #[test]

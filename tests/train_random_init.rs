@@ -30,6 +30,8 @@
 //! --workspace` stays fast; `cargo test --workspace -- --ignored` runs it,
 //! and `.ci/run` does so on every change (docs/ARCHITECTURE.md, "Tests").
 
+mod common;
+
 use std::path::Path;
 
 use splatkit::testing::write_sphere_dataset;
@@ -58,17 +60,6 @@ fn evals(run_dir: &Path) -> (Vec<f64>, String) {
         m["primitives"], m["iterations_per_second"]
     );
     (e, summary)
-}
-
-/// Runs `train` without the CLI tests' address-space limit.
-fn train(args: &[&str]) {
-    let exe = assert_cmd::cargo::cargo_bin("train");
-    let out = std::process::Command::new(exe).args(args).output().unwrap();
-    assert!(
-        out.status.success(),
-        "train: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 #[test]
@@ -104,7 +95,7 @@ fn triangles_and_gaussians_from_random_points() {
         if let Some(m) = extra {
             a.extend(["--min-inradius", m]);
         }
-        train(&a);
+        common::run_ok("train", &a);
     }
     let ((t, ts), (u, us), (g, gs_sum)) = (evals(&tri), evals(&sub), evals(&gs));
     eprintln!(
@@ -141,8 +132,9 @@ fn triangles_and_gaussians_from_random_points() {
     let model = sub.join("point_cloud/iteration_3000/triangles.ply");
     let cams = d.join("cameras.json");
     let images = d.join("images");
-    let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("render"))
-        .args([
+    let out = common::run_ok(
+        "render",
+        &[
             p(&model),
             "--cameras",
             p(&cams),
@@ -150,21 +142,13 @@ fn triangles_and_gaussians_from_random_points() {
             p(&r),
             "--outputs",
             "rgb",
-        ])
-        .args([
             "--compare",
             p(&images),
             "--min-inradius",
             MIN_INRADIUS,
             "--json",
             "-q",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "render: {}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
     );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let views = j["views"].as_array().unwrap();

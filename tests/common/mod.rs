@@ -17,6 +17,21 @@ use splatkit::model::{Camera, Mesh, Scene};
 /// cleanly, and the test would see it.
 pub const LIMIT_KIB: u64 = 2 * 1024 * 1024;
 
+/// Runs binary `name` with `args` WITHOUT the address-space limit (training
+/// and meshing need more than 2 GB of address space with rayon's stacks)
+/// and asserts it succeeded, its stderr in the message; for the acceptance
+/// runs, which test results rather than hostile input.
+pub fn run_ok(name: &str, args: &[&str]) -> Output {
+    let exe = assert_cmd::cargo::cargo_bin(name);
+    let out = std::process::Command::new(exe).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Runs binary `name` with `args` under the address-space limit.
 pub fn run(name: &str, args: &[&str], stdin: Option<&Path>) -> Output {
     let exe = assert_cmd::cargo::cargo_bin(name);
