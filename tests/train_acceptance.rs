@@ -47,11 +47,6 @@ fn chamfer(mesh: &Path) -> f64 {
     0.5 * (a + c)
 }
 
-/// Runs a command without the CLI tests' address-space limit.
-fn cmd(name: &str, args: &[&str]) {
-    common::run_ok(name, args);
-}
-
 #[test]
 #[ignore = "long acceptance run (about 9 minutes on 2 cores): cargo test --workspace -- --ignored, as .ci/run does"]
 fn both_models_reach_30_db_and_the_regularised_meshes_fit_the_sphere() {
@@ -64,11 +59,11 @@ fn both_models_reach_30_db_and_the_regularised_meshes_fit_the_sphere() {
     let tri = o("tri");
     let mut a = vec!["triangles", p(&d), "-o", p(&tri), "--max-shapes", "30000"];
     a.extend(common);
-    cmd("train", &a);
+    common::run_ok("train", &a);
     let pt = o("tri/point_cloud/iteration_3000/point_cloud_state_dict.pt");
     let cams = o("tri/cameras.json");
     let tri_mesh = o("tri.ply");
-    cmd(
+    common::run_ok(
         "tsdf-fuse",
         &[p(&pt), "--cameras", p(&cams), "-q", "-o", p(&tri_mesh)],
     );
@@ -81,14 +76,14 @@ fn both_models_reach_30_db_and_the_regularised_meshes_fit_the_sphere() {
         if let Some(r) = reg {
             a.extend(["--regularize", r]);
         }
-        cmd("train", &a);
+        common::run_ok("train", &a);
         let pts = o(&format!("{name}_points.ply"));
-        cmd(
+        common::run_ok(
             "splat2points",
             &[p(&out), "--all-views", "-q", "-o", p(&pts)],
         );
         let mesh = o(&format!("{name}.ply"));
-        cmd("poisson", &[p(&pts), "--depth", "8", "-q", "-o", p(&mesh)]);
+        common::run_ok("poisson", &[p(&pts), "--depth", "8", "-q", "-o", p(&mesh)]);
     }
     let (t0, t1) = psnr(&o("tri"));
     let (g0, g1) = psnr(&o("gs"));

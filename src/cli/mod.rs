@@ -218,6 +218,22 @@ pub fn positive_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `--min-inradius` of `train triangles` and `render` (clap value parser):
+/// a pixel count in (0, 1] (above 1 would cull triangles the reference's
+/// kernel draws; see `RasterSettings::min_inradius`).
+pub fn min_inradius_arg(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number of pixels"))?;
+    if v > 0.0 && v <= 1.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{s}: the smallest drawn inradius must lie in (0, 1] pixels"
+        ))
+    }
+}
+
 /// A flag value that must be a finite number ≥ 0 (clap value parser).
 pub fn nonneg_f64(s: &str) -> Result<f64, String> {
     let v: f64 = s
@@ -401,4 +417,21 @@ pub fn check_binary_stdout(path: &Path) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    /// `--min-inradius` takes a pixel count in (0, 1]: zero, negatives,
+    /// values above the kernel's 1 px, NaN and words are refused with the
+    /// value named.
+    #[test]
+    fn min_inradius_range() {
+        for ok in ["1", "0.5", "1e-3"] {
+            assert!(super::min_inradius_arg(ok).is_ok(), "{ok}");
+        }
+        for bad in ["0", "-0.5", "1.5", "NaN", "inf", "px"] {
+            let e = super::min_inradius_arg(bad).unwrap_err();
+            assert!(e.contains(bad), "{bad}: {e}");
+        }
+    }
 }

@@ -103,7 +103,7 @@ pub struct RenderArgs {
     /// Triangle splats: draw triangles whose projected inradius is at least
     /// this many pixels (Triangle Splatting's kernel: 1); give the value a
     /// model was trained with (`train triangles --min-inradius`).
-    #[arg(long, default_value_t = 1.0, value_parser = crate::train::triangles::min_inradius_arg)]
+    #[arg(long, default_value_t = 1.0, value_parser = crate::cli::min_inradius_arg)]
     pub min_inradius: f64,
     #[command(flatten)]
     pub filter: Filter2dArgs,

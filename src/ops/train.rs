@@ -44,12 +44,13 @@ use crate::io::dataset::{Dataset, DatasetOptions, MaskMode, load_dataset};
 use crate::io::detect::FileFormat;
 use crate::model::rng::seeded;
 use crate::model::{Camera, PointCloud, TriangleSoup, rig};
+use crate::train::gaussians::init::grey_seeds;
 use crate::train::gaussians::init::{init_gaussians, random_points};
 use crate::train::gaussians::{GaussianParams, GaussianTrainer, Regularize};
 use crate::train::photometric::Eval;
 use crate::train::session::{self, Event, Outcome};
 use crate::train::trainer::Trainer;
-use crate::train::triangles::init::{InitParams, grey_seeds, init_triangles};
+use crate::train::triangles::init::{InitParams, init_triangles};
 use crate::train::triangles::{Preset, TriangleParams, TriangleTrainer};
 
 /// Arguments of `train`.
@@ -155,6 +156,12 @@ pub struct DataArgs {
     /// Seed of the view order, initialisation and densification.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// The highest spherical-harmonics band trained, 0 to 3 (3DGS's and
+    /// Triangle Splatting's `--sh_degree`): 0 gives view-independent
+    /// colour. The files keep the 3-band layout with the bands above N at
+    /// zero, so every reader renders them as degree N.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(0..=3))]
+    pub sh_degree: u8,
     #[command(flatten)]
     pub common: Common,
 }
@@ -188,7 +195,7 @@ pub struct TriangleArgs {
     /// triangles seen edge-on at the silhouette; render such a model with
     /// `render --min-inradius` of the same value.
     #[arg(long, default_value_t = 1.0, value_name = "PX",
-          value_parser = crate::train::triangles::min_inradius_arg)]
+          value_parser = crate::cli::min_inradius_arg)]
     pub min_inradius: f64,
 }
 
@@ -344,7 +351,7 @@ fn prepare(a: &DataArgs) -> anyhow::Result<Prepared> {
             let cams: Vec<&Camera> = train.iter().map(|&i| &data.views[i].camera).collect();
             let (lo, hi) = init_box(&cams);
             // grey, as 3DGS's and Triangle Splatting's readers make their
-            // random points (triangles::init::grey_seeds)
+            // random points (gaussians::init::grey_seeds)
             let pts = random_points(a.init_points, lo, hi, &mut seeded(a.seed));
             (grey_seeds(&pts), true)
         }
@@ -705,6 +712,7 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     params.background = background(a);
     params.random_background = a.random_background;
     params.reference_schedule = a.schedule == ScheduleArg::Reference;
+    params.sh_degree = a.sh_degree.into();
     params.seed = a.seed;
     let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
         "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(), "dome": args.dome,
@@ -772,6 +780,7 @@ fn run_gaussians(args: GaussianArgs) -> anyhow::Result<()> {
     params.white_background = a.white_background;
     params.random_background = a.random_background;
     params.reference_schedule = a.schedule == ScheduleArg::Reference;
+    params.sh_degree = a.sh_degree.into();
     params.seed = a.seed;
     let settings = json!({"params": params, "data": shown(&a.data, false), "views": names(&p),
         "test_every": a.test_every, "masks": p.data.views[0].mask.is_some(),

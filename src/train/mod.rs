@@ -28,3 +28,14 @@ pub mod strategy;
 pub mod sugar;
 pub mod trainer;
 pub mod triangles;
+
+/// Serde default of the trainers' `sh_degree` (the references' 3).
+pub(crate) fn three() -> usize {
+    3
+}
+
+/// Whether `sh_degree` is the default 3 (left out of the settings, so a
+/// checkpoint written before the setting existed still resumes).
+pub(crate) fn is_three(v: &usize) -> bool {
+    *v == 3
+}

@@ -5,7 +5,8 @@
 //! all three log scales = ln sqrt(max(mean squared distance to the 3
 //! nearest other points, 1e-7)); rotation identity (w = 1); opacity
 //! logit(0.1). Without points (synthetic scenes), [`random_points`] draws
-//! them uniformly in a box with uniformly random colours, seeded.
+//! them uniformly in a box, seeded, and [`grey_seeds`] makes them grey as
+//! the references' readers do (for both models).
 
 use rand::RngExt;
 
@@ -30,6 +31,22 @@ pub fn random_points(n: usize, lo: [f64; 3], hi: [f64; 3], rng: &mut Rng) -> Poi
     }
     pc.colors = Some(colors);
     pc
+}
+
+/// The 8-bit colour of random seeds on every channel: the references'
+/// readers (3DGS's and Triangle Splatting's) draw random points' colour as
+/// 0.5 + U(0, 0.0011) and store it as 8 bits, i.e. 127 (docs/train.md,
+/// "Random initial points"; `crate::train::triangles::init` tells why it
+/// matters).
+pub const RANDOM_SEED_GREY: u8 = 127;
+
+/// `points` with every colour set to [`RANDOM_SEED_GREY`] (positions and
+/// normals kept): the seeds of a run from random points.
+pub fn grey_seeds(points: &PointCloud) -> PointCloud {
+    PointCloud {
+        colors: Some(vec![[RANDOM_SEED_GREY; 3]; points.len()]),
+        ..points.clone()
+    }
 }
 
 /// 3DGS's Gaussians for `points` at SH degree `sh_degree` (see the module

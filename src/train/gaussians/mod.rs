@@ -108,6 +108,14 @@ pub struct GaussianParams {
     pub reference_schedule: bool,
     /// White background: also reset opacities at the start of densification.
     pub white_background: bool,
+    /// The highest SH band trained (`--sh-degree`; 3 unless set lower):
+    /// the active degree never passes it, so the bands above stay zero in
+    /// the written files.
+    #[serde(
+        default = "crate::train::three",
+        skip_serializing_if = "crate::train::is_three"
+    )]
+    pub sh_degree: usize,
     pub seed: u64,
 }
 
@@ -134,6 +142,7 @@ impl GaussianParams {
             random_background: false,
             reference_schedule: false,
             white_background: false,
+            sh_degree: 3,
             seed: 0,
         }
     }
@@ -343,7 +352,9 @@ impl GaussianTrainer {
 
     /// SH degree rendered at the current iteration.
     pub fn active_degree(&self) -> usize {
-        ((self.iteration / self.params.at(1000)) as usize).min(self.model.sh_degree)
+        ((self.iteration / self.params.at(1000)) as usize)
+            .min(self.model.sh_degree)
+            .min(self.params.sh_degree)
     }
 
     fn settings(&self) -> RasterSettings {

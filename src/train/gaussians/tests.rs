@@ -80,3 +80,26 @@ fn sugar_phases_prune_and_regularize() {
         assert!(t.model.means.iter().flatten().all(|v| v.is_finite()));
     }
 }
+
+/// `sh_degree` caps the trained SH bands: past the iterations where the
+/// default run has turned on bands 1–3, a run capped at 0 renders at degree
+/// 0 and its higher bands are still exactly zero, while the uncapped run
+/// has trained them.
+#[test]
+fn sh_degree_caps_the_trained_bands() {
+    let views = scene(8, 24);
+    let train: Vec<usize> = (0..views.len()).collect();
+    let g = init_gaussians(&sphere_points(60, 3), 3).unwrap();
+    // 300 iterations: one band per at(1000) = 10 iterations
+    for (cap, want) in [(0, 0), (3, 3)] {
+        let mut p = GaussianParams::new(300, None, 3.85);
+        p.sh_degree = cap;
+        let mut t = GaussianTrainer::new(g.clone(), p);
+        for _ in 0..40 {
+            t.step(&views, &train);
+        }
+        assert_eq!(t.active_degree(), want);
+        let zero = t.model.sh_rest.iter().all(|&v| v == 0.0);
+        assert_eq!(zero, cap == 0, "cap {cap}: rest bands all zero: {zero}");
+    }
+}

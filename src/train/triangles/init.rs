@@ -17,7 +17,8 @@
 //! seeds, centred at the origin.
 //!
 //! Random seeds (data without points, `train --init-points`) are grey:
-//! [`grey_seeds`] gives every seed the colour [`RANDOM_SEED_GREY`]. The
+//! [`crate::train::gaussians::init::grey_seeds`] gives every seed the colour
+//! [`crate::train::gaussians::init::RANDOM_SEED_GREY`], for both models. The
 //! reference's reader draws its 100,000 random points with SH DC
 //! U(0, 1)/255, i.e. colour 0.5 + U(0, 0.0011), which its PLY round trip
 //! (`storePly` then `fetchPly`, 8-bit) makes 127/255 on every channel: the
@@ -38,19 +39,6 @@ use crate::{Error, Result};
 
 /// C0 of the SH basis.
 const C0: f32 = 0.282_094_8;
-
-/// The 8-bit colour of random seeds on every channel (see the module docs):
-/// the reference's 0.5 + U(0, 0.0011) after its 8-bit PLY round trip.
-pub const RANDOM_SEED_GREY: u8 = 127;
-
-/// `points` with every colour set to [`RANDOM_SEED_GREY`] (positions and
-/// normals kept): the seeds of a run from random points.
-pub fn grey_seeds(points: &PointCloud) -> PointCloud {
-    PointCloud {
-        colors: Some(vec![[RANDOM_SEED_GREY; 3]; points.len()]),
-        ..points.clone()
-    }
-}
 
 /// Initial values (the reference's defaults).
 #[derive(Clone, Debug, serde::Serialize)]
@@ -217,7 +205,7 @@ mod tests {
             colors: Some(vec![[255, 0, 9], [0, 0, 0], [30, 200, 100]]),
             ..Default::default()
         };
-        let g = grey_seeds(&pc);
+        let g = crate::train::gaussians::init::grey_seeds(&pc);
         assert_eq!(g.positions, pc.positions);
         let soup = init_triangles(&g, &InitParams::default(), &mut seeded(2)).unwrap();
         let want = (127.0 / 255.0 - 0.5) / C0;

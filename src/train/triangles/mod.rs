@@ -121,6 +121,14 @@ pub struct TriangleParams {
     /// (pixels; 1, the reference kernel's, unless set lower).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub min_inradius: f64,
+    /// The highest SH band trained (`--sh-degree`; 3, the references',
+    /// unless set lower): the active degree never passes it, so the bands
+    /// above stay zero in the written files.
+    #[serde(
+        default = "crate::train::three",
+        skip_serializing_if = "crate::train::is_three"
+    )]
+    pub sh_degree: usize,
     pub seed: u64,
 }
 
@@ -130,21 +138,6 @@ fn one() -> f64 {
 
 fn is_one(v: &f64) -> bool {
     *v == 1.0
-}
-
-/// Parses `--min-inradius`: a pixel count in (0, 1] (above 1 would cull
-/// triangles the reference draws).
-pub fn min_inradius_arg(s: &str) -> std::result::Result<f64, String> {
-    let v: f64 = s
-        .parse()
-        .map_err(|_| format!("{s:?} is not a number of pixels"))?;
-    if v > 0.0 && v <= 1.0 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "{s}: the smallest drawn inradius must lie in (0, 1] pixels"
-        ))
-    }
 }
 
 impl TriangleParams {
@@ -175,6 +168,7 @@ impl TriangleParams {
             random_background: false,
             reference_schedule: false,
             min_inradius: 1.0,
+            sh_degree: 3,
             seed: 0,
         }
     }
@@ -357,7 +351,9 @@ impl TriangleTrainer {
     /// SH degree rendered at the current iteration.
     pub fn active_degree(&self) -> usize {
         let w = self.params.at(1000);
-        ((self.iteration / w) as usize).min(self.soup.sh_degree)
+        ((self.iteration / w) as usize)
+            .min(self.soup.sh_degree)
+            .min(self.params.sh_degree)
     }
 
     fn settings(&self) -> RasterSettings {
