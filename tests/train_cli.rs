@@ -289,3 +289,37 @@ fn bad_input_is_refused_and_nothing_is_written() {
         &["other settings"],
     );
 }
+
+/// `--lambda-opacity` (the reference's `--lambda_opacity`) reaches the
+/// settings and the loss: 0 writes 0 in the settings and trains another
+/// model than the default 0.0055; negative or non-finite weights are usage
+/// errors (exit 2) and nothing is written.
+#[test]
+fn lambda_opacity_sets_the_regulariser() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(dir.path());
+    let weight = |out: &Path| {
+        let m: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+        m["settings"]["params"]["lambda_opacity"].as_f64().unwrap()
+    };
+    let model = "point_cloud/iteration_450/triangles.ply";
+    let (def, off) = (dir.path().join("def"), dir.path().join("off"));
+    succeeds(&train("triangles", &d, &def, &[]));
+    succeeds(&train("triangles", &d, &off, &["--lambda-opacity", "0"]));
+    assert_eq!(weight(&def), 0.0055);
+    assert_eq!(weight(&off), 0.0);
+    assert_ne!(
+        std::fs::read(def.join(model)).unwrap(),
+        std::fs::read(off.join(model)).unwrap()
+    );
+    for bad in ["-1", "nan", "inf", "x"] {
+        let out = dir.path().join("bad");
+        fails(
+            &train("triangles", &d, &out, &["--lambda-opacity", bad]),
+            2,
+            &["--lambda-opacity"],
+        );
+        assert!(!out.exists(), "{bad}");
+    }
+}

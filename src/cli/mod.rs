@@ -223,6 +223,7 @@ pub fn positive_f64(s: &str) -> Result<f64, String> {
 /// kernel draws; see `RasterSettings::min_inradius`).
 pub fn min_inradius_arg(s: &str) -> Result<f64, String> {
     let v: f64 = s
+        .trim()
         .parse()
         .map_err(|_| format!("{s:?} is not a number of pixels"))?;
     if v > 0.0 && v <= 1.0 {
@@ -426,9 +427,11 @@ mod tests {
     /// value named.
     #[test]
     fn min_inradius_range() {
-        for ok in ["1", "0.5", "1e-3"] {
+        for ok in ["1", "0.5", "1e-3", " 0.5 "] {
             assert!(super::min_inradius_arg(ok).is_ok(), "{ok}");
         }
+        // surrounding blanks are trimmed, as positive_f64 does
+        assert_eq!(super::min_inradius_arg(" 0.5 "), Ok(0.5));
         for bad in ["0", "-0.5", "1.5", "NaN", "inf", "px"] {
             let e = super::min_inradius_arg(bad).unwrap_err();
             assert!(e.contains(bad), "{bad}: {e}");

@@ -196,6 +196,14 @@ pub struct TriangleArgs {
     #[arg(long, default_value_t = 1.0, value_name = "PX",
           value_parser = crate::cli::min_inradius_arg)]
     pub min_inradius: f64,
+    /// Weight λ_o of the opacity regulariser λ_o·mean(opacity), the
+    /// reference's `--lambda_opacity` (default 0.0055). 0 switches it off:
+    /// on low-resolution photos without initial points that trains more,
+    /// more opaque triangles that generalise better (docs/train.md,
+    /// "Random initial points").
+    #[arg(long, default_value_t = 0.0055, value_name = "W", allow_hyphen_values = true,
+          value_parser = crate::cli::nonneg_f64)]
+    pub lambda_opacity: f64,
 }
 
 /// How milestones follow `--iterations`.
@@ -708,6 +716,7 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     params.game_engine = args.game_engine;
     params.mcmc.max_shapes = args.max_shapes;
     params.min_inradius = args.min_inradius;
+    params.lambda_opacity = args.lambda_opacity;
     params.background = background(a);
     params.random_background = a.random_background;
     params.reference_schedule = a.schedule == ScheduleArg::Reference;

@@ -34,8 +34,33 @@ pub(crate) fn three() -> usize {
     3
 }
 
+/// The SH degree a trainer renders at `iteration`: one band more every
+/// `per_band` iterations (the references' 1,000, scaled with the schedule),
+/// never above the model's stored degree nor the `--sh-degree` cap.
+pub(crate) fn sh_band(iteration: u64, per_band: u64, model_degree: usize, cap: usize) -> usize {
+    ((iteration / per_band.max(1)) as usize)
+        .min(model_degree)
+        .min(cap)
+}
+
 /// Whether `sh_degree` is the default 3 (left out of the settings, so a
 /// checkpoint written before the setting existed still resumes).
 pub(crate) fn is_three(v: &usize) -> bool {
     *v == 3
+}
+
+#[cfg(test)]
+mod tests {
+    /// One band per `per_band` iterations, capped by the model's degree and
+    /// by `--sh-degree`; a zero interval counts as 1 (no division by zero).
+    #[test]
+    fn sh_band_steps_and_caps() {
+        assert_eq!(super::sh_band(0, 1000, 3, 3), 0);
+        assert_eq!(super::sh_band(999, 1000, 3, 3), 0);
+        assert_eq!(super::sh_band(2999, 1000, 3, 3), 2);
+        assert_eq!(super::sh_band(50_000, 1000, 3, 3), 3);
+        assert_eq!(super::sh_band(50_000, 1000, 3, 1), 1);
+        assert_eq!(super::sh_band(50_000, 1000, 0, 3), 0);
+        assert_eq!(super::sh_band(2, 0, 3, 3), 2);
+    }
 }

@@ -352,9 +352,12 @@ impl GaussianTrainer {
 
     /// SH degree rendered at the current iteration.
     pub fn active_degree(&self) -> usize {
-        ((self.iteration / self.params.at(1000)) as usize)
-            .min(self.model.sh_degree)
-            .min(self.params.sh_degree)
+        crate::train::sh_band(
+            self.iteration,
+            self.params.at(1000),
+            self.model.sh_degree,
+            self.params.sh_degree,
+        )
     }
 
     fn settings(&self) -> RasterSettings {

@@ -350,10 +350,12 @@ impl TriangleTrainer {
 
     /// SH degree rendered at the current iteration.
     pub fn active_degree(&self) -> usize {
-        let w = self.params.at(1000);
-        ((self.iteration / w) as usize)
-            .min(self.soup.sh_degree)
-            .min(self.params.sh_degree)
+        crate::train::sh_band(
+            self.iteration,
+            self.params.at(1000),
+            self.soup.sh_degree,
+            self.params.sh_degree,
+        )
     }
 
     fn settings(&self) -> RasterSettings {
