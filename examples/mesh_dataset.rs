@@ -25,14 +25,9 @@ fn main() {
 
 fn run(mesh: &str, out: &str, n: usize, size: u32) -> splatkit::Result<()> {
     let mesh = splatkit::io::any::load_mesh(std::path::Path::new(mesh), "mesh_dataset")?;
-    let mut lo = [f32::MAX; 3];
-    let mut hi = [f32::MIN; 3];
-    for v in &mesh.vertices {
-        for k in 0..3 {
-            lo[k] = lo[k].min(v[k]);
-            hi[k] = hi[k].max(v[k]);
-        }
-    }
+    let (lo, hi) = mesh
+        .bounds()
+        .ok_or_else(|| splatkit::Error::invalid("the mesh has no vertices"))?;
     let c: [f32; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
     let r = mesh
         .vertices

@@ -427,7 +427,7 @@ mod tests {
     /// value named.
     #[test]
     fn min_inradius_range() {
-        for ok in ["1", "0.5", "1e-3", " 0.5 "] {
+        for ok in ["1", "0.5", "1e-3"] {
             assert!(super::min_inradius_arg(ok).is_ok(), "{ok}");
         }
         // surrounding blanks are trimmed, as positive_f64 does

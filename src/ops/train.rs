@@ -201,9 +201,9 @@ pub struct TriangleArgs {
     /// on low-resolution photos without initial points that trains more,
     /// more opaque triangles that generalise better (docs/train.md,
     /// "Random initial points").
-    #[arg(long, default_value_t = 0.0055, value_name = "W", allow_hyphen_values = true,
+    #[arg(long, value_name = "W", allow_hyphen_values = true,
           value_parser = crate::cli::nonneg_f64)]
-    pub lambda_opacity: f64,
+    pub lambda_opacity: Option<f64>,
 }
 
 /// How milestones follow `--iterations`.
@@ -716,7 +716,9 @@ fn run_triangles(args: TriangleArgs) -> anyhow::Result<()> {
     params.game_engine = args.game_engine;
     params.mcmc.max_shapes = args.max_shapes;
     params.min_inradius = args.min_inradius;
-    params.lambda_opacity = args.lambda_opacity;
+    if let Some(w) = args.lambda_opacity {
+        params.lambda_opacity = w;
+    }
     params.background = background(a);
     params.random_background = a.random_background;
     params.reference_schedule = a.schedule == ScheduleArg::Reference;
