@@ -229,10 +229,11 @@ fn screen_grads<const K: usize>(
                         let dx = p.xy[0] - (x as f32 + 0.5);
                         let power = -0.5 * (p.conic[0] * dx * dx + p.conic[2] * dy * dy)
                             - p.conic[1] * dx * dy;
-                        if power > 0.0 || power < p.power_cut {
+                        // the forward pass's test and exponential (same bits)
+                        if !(power <= 0.0 && power >= p.power_cut) {
                             continue;
                         }
-                        let gauss = power.exp();
+                        let gauss = crate::exp_approx::exp(power);
                         let raw = p.opacity * gauss;
                         let alpha = raw.min(0.99);
                         if alpha < 1.0 / 255.0 {

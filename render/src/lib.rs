@@ -28,6 +28,7 @@
 pub mod camera;
 pub mod depth_normal;
 pub mod dual;
+pub mod exp_approx;
 pub mod gaussian;
 pub mod gaussian_grad;
 pub mod gaussian_integrate;

@@ -133,18 +133,22 @@ impl TileLists {
             .map(|(i, p)| ((key(depth(p)) as u64) << 32) | i as u64)
             .collect();
         order.par_sort_unstable();
+        // the rectangles in sorted order: one gather, then the passes below
+        // read them in sequence instead of at random
+        let sorted_rects: Vec<[u32; 4]> = order
+            .par_iter()
+            .map(|k| rects[(k & 0xffff_ffff) as usize].expect("filtered"))
+            .collect();
         // counts per tile, in parallel over chunks of the sorted order
-        let rect_of = |k: &u64| rects[(k & 0xffff_ffff) as usize].expect("filtered");
         let chunk = order
             .len()
             .div_ceil(rayon::current_num_threads() * 4)
             .max(1);
-        let counts: Vec<Vec<u32>> = order
+        let counts: Vec<Vec<u32>> = sorted_rects
             .par_chunks(chunk)
             .map(|c| {
                 let mut cnt = vec![0u32; tw * th];
-                for k in c {
-                    let [x0, y0, x1, y1] = rect_of(k);
+                for &[x0, y0, x1, y1] in c {
                     for ty in y0 as usize..=y1 as usize {
                         for tx in x0 as usize..=x1 as usize {
                             cnt[ty * tw + tx] += 1;
@@ -171,8 +175,7 @@ impl TileLists {
         // where each primitive's positions start, in sorted order
         let mut start = vec![0u32; n];
         let mut total = 0usize;
-        for k in &order {
-            let [x0, y0, x1, y1] = rect_of(k);
+        for (k, &[x0, y0, x1, y1]) in order.iter().zip(&sorted_rects) {
             start[(k & 0xffff_ffff) as usize] = total as u32;
             total += (x1 - x0 + 1) as usize * (y1 - y0 + 1) as usize;
         }
@@ -181,11 +184,11 @@ impl TileLists {
         let (ep, pp) = (SharedSlice::new(&mut entries), SharedSlice::new(&mut pos));
         order
             .par_chunks(chunk)
+            .zip(sorted_rects.par_chunks(chunk))
             .zip(chunk_at.into_par_iter())
-            .for_each(|(c, mut at)| {
-                for k in c {
+            .for_each(|((c, cr), mut at)| {
+                for (k, &[x0, y0, x1, y1]) in c.iter().zip(cr) {
                     let pi = (k & 0xffff_ffff) as usize;
-                    let [x0, y0, x1, y1] = rect_of(k);
                     let mut q = start[pi] as usize;
                     for ty in y0 as usize..=y1 as usize {
                         for tx in x0 as usize..=x1 as usize {
