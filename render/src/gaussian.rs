@@ -1079,11 +1079,6 @@ mod tests {
         }
     }
 
-    /// The tile-and-span machinery (opacity-aware tile boxes, per-Gaussian
-    /// pixel spans, the exponent cut, the global depth sort) is a speed-up
-    /// only: the image equals, bit for bit, a plain per-pixel loop over the
-    /// reference's tile lists (3DGS `getRect` of the 3σ radius) on a random scene with thin,
-    /// elongated, opaque and faint Gaussians.
     /// `n` random Gaussians in front of [`camera`] (seeded [`crate::testutil::Lcg`]):
     /// anisotropic, randomly rotated, 30 % fully opaque and the rest of any
     /// opacity, random SH of degree `sh_degree`.
@@ -1175,6 +1170,11 @@ mod tests {
         assert_eq!(compared, 4 * w * h);
     }
 
+    /// The tile-and-span machinery (opacity-aware tile boxes, per-Gaussian
+    /// pixel spans, the exponent cut, the global depth sort) is a speed-up
+    /// only: the image equals, bit for bit, a plain per-pixel loop over the
+    /// reference's tile lists (3DGS `getRect` of the 3σ radius) on a random scene with thin,
+    /// elongated, opaque and faint Gaussians.
     #[test]
     fn fast_path_equals_the_plain_loop() {
         let cam = camera(80, 56, 70.0);

@@ -1,7 +1,7 @@
 //! The Gaussian forward blend of one tile, 8 pixels of a row at a time
 //! (AVX2), chosen at run time where the CPU has AVX2.
 //!
-//! Same order as the scalar [`super::render_tile`]: the tile's list front to
+//! Same order as the scalar [`super::render_tile_scalar`]: the tile's list front to
 //! back, each Gaussian visiting the rows of its pixel box; a row's 16 pixels
 //! are two groups of 8 lanes, and a group is skipped when the box misses it.
 //! Every lane does the scalar loop's f32 operations in the same order (power,
@@ -34,7 +34,7 @@ struct Soa {
     done: [i32; N],
 }
 
-/// [`super::render_tile`] for AVX2 CPUs.
+/// [`super::render_tile_scalar`] for AVX2 CPUs ([`super::render_tile`] picks).
 ///
 /// # Safety
 /// The CPU must support AVX2.
