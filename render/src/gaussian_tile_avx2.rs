@@ -168,11 +168,8 @@ pub(super) unsafe fn render_tile(
                         add!(a.nsum[k], nrm[k]);
                     }
                     add!(a.dsum, depth);
-                    {
-                        let ptr = a.wsum.as_mut_ptr().add(o);
-                        let old = _mm256_loadu_ps(ptr);
-                        _mm256_storeu_ps(ptr, _mm256_blendv_ps(old, _mm256_add_ps(old, wgt), upd));
-                    }
+                    // 1·wgt is exactly wgt: the scalar loop's wsum += wgt
+                    add!(a.wsum, one);
                     // 2DGS: the last contribution made while T before it > 0.5
                     let med = _mm256_and_ps(upd, _mm256_cmp_ps::<_CMP_GT_OQ>(t, half));
                     let mp = a.median.as_mut_ptr().add(o);
