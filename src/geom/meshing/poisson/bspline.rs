@@ -157,20 +157,18 @@ impl Default for Tables {
     }
 }
 
-/// The density-kernel normaliser: the value that splatting a uniform
-/// co-dimension-1 sheet with one sample per cell area and evaluating at the
-/// sheet gives, averaged over the sheet's offset inside a cell (10 positions).
-/// Dividing splatted weights by it makes such a sheet read one "sample per node".
+/// The density-kernel normaliser: Σ_j b2(½ − c_j)², what splatting a
+/// co-dimension-1 sheet with one sample per cell area through cell centres
+/// and evaluating on the sheet gives. Dividing splatted weights by it makes
+/// such a sheet read one "sample per node". This is the rule of Open3D 0.20's
+/// PoissonRecon (`GetScaleValue`, the degree-2 values at the centre, 0.59375);
+/// PoissonRecon 18.x averages the sheet over offsets inside the cell instead
+/// (0.55), which reads 8 % more samples per node (depth estimates 0.055
+/// higher) and splats more samples one level finer: 25 % more vertices than
+/// Open3D on the Stanford bunny at depth 9 (docs/poisson.md).
 pub fn kernel_scale() -> f64 {
-    // In-plane, the degree-2 weights sum to one per sample row, so only the
-    // across-sheet factor Σ_j b2(t - c_j)² remains.
-    let mut s = 0.0;
-    for k in 0..10 {
-        let t = (k as f64 + 0.5) / 10.0;
-        let (_, w) = b2_weights(t);
-        s += w.iter().map(|x| x * x).sum::<f64>();
-    }
-    s / 10.0
+    let (_, w) = b2_weights(0.5);
+    w.iter().map(|x| x * x).sum::<f64>()
 }
 
 #[cfg(test)]
@@ -203,8 +201,11 @@ mod tests {
             let (_, w) = b2_weights(t);
             assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
         }
-        // ∫ b2² = 11/20, the mass diagonal of the quadratic basis; the
-        // 10-point average of Σ b2² approximates it.
-        assert!((kernel_scale() - 0.55).abs() < 2e-3, "{}", kernel_scale());
+        // At the cell centre the weights are (1/8, 3/4, 1/8): Σ b2² = 19/32.
+        assert!(
+            (kernel_scale() - 19.0 / 32.0).abs() < 1e-15,
+            "{}",
+            kernel_scale()
+        );
     }
 }

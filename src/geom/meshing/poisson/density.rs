@@ -2,18 +2,19 @@
 //! (PoissonRecon `Src/FEMTree.WeightedSamples.inl`).
 //!
 //! At every depth k ≤ K (K = D − 2, the "kernel depth") the samples are
-//! aggregated per level-k cell (summed weight at the weighted centroid) and
-//! splatted into degree-2 B-spline coefficients, divided by
+//! aggregated per level-(k+1) cell (summed weight at the weighted centroid)
+//! and splatted into the level-k degree-2 B-spline coefficients around the
+//! parent cell, divided by
 //! [`kernel_scale`](super::bspline::kernel_scale) so that a flat sheet with
 //! one sample per cell area evaluates to 1. `spn_k(p)` is that field at p.
 //!
 //! The depth estimate d(p): if spn_K(p) ≥ s (samples per node) then
 //! d = K + ln(spn_K/s) / (2 ln 2) (a surface gains 4× samples per finer
 //! level); otherwise walk to coarser k until spn_k ≥ s and interpolate
-//! logarithmically, d = k + ln(spn_k/s) / ln(spn_k/spn_{k+1}). The area a
-//! sample stands for is a(p) = h_k² / spn_k at the k where the walk stopped
-//! (unit-cube area). The same d, evaluated at mesh vertices, is the output
-//! `density`.
+//! logarithmically, d = k + ln(spn_k/s) / ln(spn_k/spn_{k+1}). The sample's
+//! area weight is a(p) = 4^-d, the unit-cube area of a node of depth d (one
+//! that holds s samples), as PoissonRecon's `_getSampleDepthAndWeight`. The
+//! same d, evaluated at mesh vertices, is the output `density`.
 
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -91,7 +92,10 @@ impl DensityField {
                     res: 1 << k,
                     bricks: FxHashMap::default(),
                 };
-                let shift = 3 * (samples.depth.saturating_sub(k));
+                // PoissonRecon (`setDensityEstimator`) splats, at depth k, the
+                // aggregates of the depth-(k+1) cells, each at its own
+                // centroid, into the neighbours of its depth-k parent.
+                let shift = 3 * (samples.depth.saturating_sub(k + 1));
                 samples.for_each_cell(shift, |w, p| {
                     let r = lv.res as f64;
                     let (ix, wx) = b2_weights(p[0] * r);
@@ -126,19 +130,16 @@ impl DensityField {
         self.levels[k as usize].eval(p)
     }
 
-    /// The depth estimate d(p) and the unit-cube area a(p) a unit of sample
-    /// weight stands for. Where no sample is near at any depth, d = 0 and
-    /// a = 1 (the whole cube face).
+    /// The depth estimate d(p) and the area weight a(p) = 4^-d of a unit of
+    /// sample weight (unit-cube units). Where no sample is near at any depth,
+    /// d = 0 and a = 1 (the whole cube face).
     pub fn depth_and_area(&self, p: [f64; 3]) -> (f64, f64) {
         let s = self.target;
         let kmax = self.kernel_depth();
-        let h2 = |k: u32| 0.25f64.powi(k as i32);
         let fine = self.samples_per_node(kmax, p);
         if fine >= s {
-            return (
-                kmax as f64 + (fine / s).ln() / (2.0 * std::f64::consts::LN_2),
-                h2(kmax) / fine,
-            );
+            let d = kmax as f64 + (fine / s).ln() / (2.0 * std::f64::consts::LN_2);
+            return (d, 0.25f64.powf(d));
         }
         let mut finer = fine;
         for k in (0..kmax).rev() {
@@ -149,16 +150,12 @@ impl DensityField {
                 } else {
                     k as f64
                 };
-                return (d.min(k as f64 + 1.0), h2(k) / coarse);
+                let d = d.min(k as f64 + 1.0);
+                return (d, 0.25f64.powf(d));
             }
             finer = coarse;
         }
-        let top = self.samples_per_node(0, p);
-        if top > 0.0 {
-            (0.0, 1.0 / top)
-        } else {
-            (0.0, 1.0)
-        }
+        (0.0, 1.0)
     }
 }
 
@@ -196,8 +193,9 @@ mod tests {
                         (d - want).abs() < 0.25,
                         "m={m} spn={spn} p={p:?}: {d} vs {want}"
                     );
-                    // Area per sample ≈ 1/density (same tolerance in log4 terms).
-                    let rel = (a * (n * n) as f64).log(4.0).abs();
+                    // Area weight = 4^-d, the area of a node holding s samples:
+                    // ≈ s/density (same tolerance in log4 terms).
+                    let rel = (a * (n * n) as f64 / spn).log(4.0).abs();
                     assert!(rel < 0.25, "area {a}");
                 }
             }

@@ -265,6 +265,21 @@ impl BitGrid {
         });
     }
 
+    /// The 8 children of every cell, one level down.
+    pub fn children(&self) -> BitGrid {
+        let mut g = BitGrid::new();
+        self.for_each(|p| {
+            for k in 0..8 {
+                g.insert([
+                    2 * p[0] + (k & 1),
+                    2 * p[1] + ((k >> 1) & 1),
+                    2 * p[2] + (k >> 2),
+                ]);
+            }
+        });
+        g
+    }
+
     /// The set of parents (coordinates halved, rounding down) one level up.
     pub fn parents(&self) -> BitGrid {
         let mut g = BitGrid::new();

@@ -4,8 +4,9 @@
 //! on arbitrary octrees"), which PoissonRecon uses.
 //!
 //! The octree: every cell of the complete levels is refined; above them a cell
-//! of depth m is refined when it is the parent of a solved cell of depth m+1
-//! (`C_{m+1}`), so leaves are as fine as the solve is there. Each leaf emits
+//! of depth m is refined when it is the parent of a cell of depth m+1 in
+//! PoissonRecon's tree (`Level::tree`: sibling groups holding normal data and
+//! their neighbourhood), so leaves are as fine as Open3D's. Each leaf emits
 //! polygons from iso-segments on its six faces, where each face is cut into
 //! the finest sub-faces that the leaves on either side give it, and each
 //! sub-face edge into the finest segments any leaf around that edge gives it
@@ -373,7 +374,7 @@ pub fn extract_octree(levels: &[Level], seeds: &[[f64; 3]], prm: &ExtractParams)
             if m >= d || levels[m as usize + 1].complete {
                 None
             } else {
-                Some(levels[m as usize + 1].cells.parents())
+                Some(levels[m as usize + 1].tree.parents())
             }
         })
         .collect();

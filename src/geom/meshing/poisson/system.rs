@@ -72,6 +72,9 @@ pub struct Level {
     /// Cells whose corners are solved at this level (`C_ℓ`); empty for the
     /// complete levels up to `full_depth`, where every cell is.
     pub cells: BitGrid,
+    /// Cells of the extraction octree at this level (see `extraction_tree`);
+    /// empty for the complete levels.
+    pub tree: BitGrid,
     /// True for the complete levels.
     pub complete: bool,
     b: Vec<f32>,
@@ -202,16 +205,19 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
     let plan = splat_plan(samples, sd, d);
     // 2. Cell sets C_ℓ, finest first.
     let mut cells: Vec<BitGrid> = (0..=d).map(|_| BitGrid::new()).collect();
+    let mut data: Vec<BitGrid> = (0..=d).map(|_| BitGrid::new()).collect();
     for lv in (full + 1..=d).rev() {
         let res = 1i32 << lv;
+        data[lv as usize] = splat_cells(samples, &plan[lv as usize], lv);
         // Cells whose corner hats overlap the level's normal splats.
-        let mut c = splat_cells(samples, &plan[lv as usize], lv).dilate(1, 1);
+        let mut c = data[lv as usize].dilate(1, 1);
         if lv < d {
             c.union_with(&cells[lv as usize + 1].dilate(1, 1).parents());
         }
         c.clip([0; 3], [res - 1; 3]);
         cells[lv as usize] = c;
     }
+    let tree = extraction_tree(data, full, d);
 
     // 3. Levels with node masks and screening cells.
     let mut levels: Vec<Level> = (0..=d)
@@ -248,6 +254,7 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
                 active: masks(&active),
                 y: vec![f32::NAN; nb * BRICK_LEN],
                 cells: BitGrid::new(),
+                tree: BitGrid::new(),
                 complete: lv <= full,
                 b: vec![0.0; nb * BRICK_LEN],
                 screen: vec![Vec::new(); nb],
@@ -255,9 +262,10 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
             }
         })
         .collect();
-    for (lev, c) in levels.iter_mut().zip(cells) {
+    for ((lev, c), t) in levels.iter_mut().zip(cells).zip(tree) {
         if !lev.complete {
             lev.cells = c;
+            lev.tree = t;
         }
     }
 
@@ -325,6 +333,40 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
     (levels, stats)
 }
 
+/// The cells of the octree that PoissonRecon extracts on (its non-ghost
+/// nodes after `finalizeForMultigrid`), per level above `full`, from the
+/// cells holding normal-field coefficients (`data`, the 3³ around each
+/// splatting sample): a level-ℓ cell is in the tree when a cell of its
+/// sibling group (same parent) has data at ℓ or below; then, finest first,
+/// every level-ℓ cell within two cells of a parent of a level-(ℓ+1) tree cell
+/// joins (the neighbourhood PoissonRecon adds for its degree-2 overlap). The
+/// solve keeps its own, wider cell sets `C_ℓ`; this tree only decides where
+/// the iso-surface is extracted at which depth, so the mesh has Open3D's
+/// resolution where the samples are sparse (its vertex count within 0.1 %
+/// on the Stanford bunny, docs/poisson.md).
+fn extraction_tree(data: Vec<BitGrid>, full: u32, d: u32) -> Vec<BitGrid> {
+    let mut tree: Vec<BitGrid> = (0..=d).map(|_| BitGrid::new()).collect();
+    let mut has_data = BitGrid::new();
+    for (lv, mut h) in data.into_iter().enumerate().rev() {
+        if lv as u32 <= full {
+            break;
+        }
+        if (lv as u32) < d {
+            h.union_with(&has_data.parents());
+        }
+        tree[lv] = h.parents().children();
+        has_data = h;
+    }
+    for lv in (full as usize + 1..d as usize).rev() {
+        let res = 1i32 << lv;
+        let mut t = tree[lv + 1].parents().dilate(2, 2);
+        t.union_with(&tree[lv]);
+        t.clip([0; 3], [res - 1; 3]);
+        tree[lv] = t;
+    }
+    tree
+}
+
 /// For each level, the samples splatting there and their factor
 /// −a·part/h³ (negated so that χ ≈ 1 inside): a sample at depth estimate d
 /// splats the fraction dx = 1 − (⌈d⌉ − d) at ⌈d⌉ and the rest one level up.
@@ -355,7 +397,14 @@ fn splat(samples: &Samples, plan: &[(u32, f32)], lv: u32) -> VLevel {
     let mut v = VLevel::default();
     for &(i, s) in plan {
         let i = i as usize;
-        let n = samples.normal[i];
+        // The merged normal, rescaled to the sample's weight (PoissonRecon's
+        // conversion: unit mean normal × weight).
+        let mut n = samples.normal[i];
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if l > 0.0 {
+            let w = samples.weight[i] / l;
+            n = [n[0] * w, n[1] * w, n[2] * w];
+        }
         let pos = samples.pos[i];
         let (ix, wx) = b2_weights(pos[0] * res as f64);
         let (iy, wy) = b2_weights(pos[1] * res as f64);
@@ -399,12 +448,9 @@ fn add_screening(lev: &mut Level, samples: &Samples, d: u32, alpha_area: f64) {
     }
     let shift = 3 * (d - lev.depth);
     let res = lev.res;
-    // 2^(ℓ+1): PoissonRecon scales screening with the depth of its tree, which
-    // carries one padding level above the unit cube for this basis. Measured
-    // against Open3D 0.20 on the 1M-point scene at depth 8, 2^ℓ put the
-    // hallucinated sheets 0.60 cells (symmetric mean) from Open3D's, 2^(ℓ+1)
-    // 0.19 cells, with the near-surface error matching (0.00038 vs 0.00033).
-    let scale = alpha_area * 2.0 * res as f64;
+    // ω = α·ā·W·2^ℓ as PoissonRecon's `InitializeApproximatePointInterpolationInfo`
+    // (adaptive exponent 1), with ā the mean of the samples' areas 4^-d.
+    let scale = alpha_area * res as f64;
     samples.for_each_cell(shift, |w, c| {
         let t = [c[0] * res as f64, c[1] * res as f64, c[2] * res as f64];
         let cell = [
