@@ -4,10 +4,9 @@ reconstruction (create_from_point_cloud_poisson, its defaults, depth 9, one thre
 on the Stanford bunny scan's vertices, for the test `bunny_scan_matches_open3d_adaptivity`
 (src/geom/meshing/poisson/tests.rs), which rebuilds the same input from ../shared/data.
 
-Input: the 35,947 vertices of scanned-meshes/bun_zipper.ply (x y z of the ASCII file), each
-with the normalised sum of the unit normals of the faces around it (Open3D's
-compute_vertex_normals); vertices on no face have a zero normal, which Open3D drops
-("bad data") and so does splatkit.
+Input: the 35,947 vertices of scanned-meshes/bun_zipper.ply with face-averaged normals
+(scripts/compare/bunny_scan.py, kind bunny-vertices); vertices on no face have a zero normal,
+which Open3D drops ("bad data") and so does splatkit.
 
 Written: Open3D's version, vertex and face counts, and every 97th output vertex with its
 density (the depth estimate Open3D returns per vertex).
@@ -22,21 +21,12 @@ import open3d as o3d
 
 here = os.path.dirname(os.path.abspath(__file__))
 shared = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "..", "..", "shared", "data")
-lines = open(os.path.join(shared, "scanned-meshes", "bun_zipper.ply")).read().split("\n")
-head = lines[:lines.index("end_header")]
-nv = int([l for l in head if l.startswith("element vertex")][0].split()[2])
-nf = int([l for l in head if l.startswith("element face")][0].split()[2])
-body = lines[len(head) + 1:]
-v = np.array([[float(x) for x in l.split()[:3]] for l in body[:nv]])
-f = np.array([[int(x) for x in l.split()[1:4]] for l in body[nv:nv + nf]])
-fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-ln = np.linalg.norm(fn, axis=1)
-fn = fn / np.where(ln > 0, ln, 1)[:, None]
-vn = np.zeros_like(v)
-for k in range(3):
-    np.add.at(vn, f[:, k], fn)
+sys.path.insert(0, os.path.join(here, "compare"))
+from bunny_scan import load  # noqa: E402  (the input recipe shared with poisson_open3d.py)
+
+v, _, vn = load(os.path.join(shared, "scanned-meshes", "bun_zipper.ply"))
+nv = len(v)
 ln = np.linalg.norm(vn, axis=1)
-vn = vn / np.where(ln > 0, ln, 1)[:, None]
 pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(v))
 pc.normals = o3d.utility.Vector3dVector(vn)
 mesh, dens = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(pc, depth=9, n_threads=1)

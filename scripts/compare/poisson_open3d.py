@@ -14,10 +14,9 @@ $SPLATKIT_COMPARE_VENV) with open3d-cpu==0.20.0 and numpy; Open3D needs libusb-1
 
 Real scans: IN.ply may instead be `bunny-200k` (200,000 area-uniform points on the Stanford
 bunny scan `scanned-meshes/bun_zipper.ply`, seed 0, normals interpolated from the mesh's vertex
-normals) or `bunny-vertices` (the scan's 35,947 vertices with those normals), generated from
-$SPLATKIT_SHARED_DATA (default ../shared/data beside the repository) into the temporary folder.
-The vertex normal is the normalised sum of the unit normals of the faces around the vertex
-(Open3D's compute_vertex_normals); vertices on no face keep a zero normal, which both tools drop.
+normals) or `bunny-vertices` (the scan's 35,947 vertices with those normals), written by
+bunny_scan.py from $SPLATKIT_SHARED_DATA (default ../shared/data beside the repository) into the
+temporary folder.
 
 usage: poisson_open3d.py IN.ply|bunny-200k|bunny-vertices [--depth 8] [--flip-normals] [--threads 1]
          [--splatkit target/release/splatkit] [--trim-quantile Q] [--json OUT]
@@ -91,45 +90,6 @@ v = np.frombuffer(data, dtype=np.dtype(props), count=count, offset=end)
 np.save(sys.argv[2], v["density"].astype(np.float64))
 '''
 
-CHILD_BUNNY = r'''
-import sys, numpy as np
-src, out, kind = sys.argv[1], sys.argv[2], sys.argv[3]
-# bun_zipper.ply is ASCII: x y z confidence intensity per vertex, "3 i j k" per face
-lines = open(src).read().split("\n")
-head = lines[:lines.index("end_header")]
-nv = int([l for l in head if l.startswith("element vertex")][0].split()[2])
-nf = int([l for l in head if l.startswith("element face")][0].split()[2])
-body = lines[len(head) + 1:]
-v = np.array([[float(x) for x in l.split()[:3]] for l in body[:nv]])
-f = np.array([[int(x) for x in l.split()[1:4]] for l in body[nv:nv + nf]])
-a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-fn = np.cross(b - a, c - a)
-area2 = np.linalg.norm(fn, axis=1)
-fn = fn / np.where(area2 > 0, area2, 1)[:, None]
-vn = np.zeros_like(v)
-for k in range(3):
-    np.add.at(vn, f[:, k], fn)
-ln = np.linalg.norm(vn, axis=1)
-vn = vn / np.where(ln > 0, ln, 1)[:, None]
-if kind == "bunny-vertices":
-    p, n = v, vn
-else:
-    rng = np.random.default_rng(0)
-    t = rng.choice(len(f), size=200000, p=area2 / area2.sum())
-    r1, r2 = np.sqrt(rng.random(200000))[:, None], rng.random(200000)[:, None]
-    w = [1 - r1, r1 * (1 - r2), r1 * r2]
-    p = sum(w[k] * v[f[t, k]] for k in range(3))
-    n = sum(w[k] * vn[f[t, k]] for k in range(3))
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
-rec = np.empty(len(p), dtype=[(k, "<f4") for k in ("x", "y", "z", "nx", "ny", "nz")])
-for i, k in enumerate(("x", "y", "z")):
-    rec[k] = p[:, i]; rec["n" + k] = n[:, i]
-with open(out, "wb") as o:
-    o.write(("ply\nformat binary_little_endian 1.0\nelement vertex %d\n" % len(p)).encode())
-    o.write("".join("property float %s\n" % k for k in rec.dtype.names).encode() + b"end_header\n")
-    o.write(rec.tobytes())
-'''
-
 def timed(cmd):
     t = time.time()
     r = subprocess.run(["/usr/bin/time", "-f", "__PEAK_KB %M"] + cmd, capture_output=True, text=True)
@@ -155,7 +115,8 @@ def main():
         here = os.path.dirname(os.path.abspath(__file__))
         shared = os.environ.get("SPLATKIT_SHARED_DATA", os.path.join(here, "..", "..", "..", "shared", "data"))
         gen = os.path.join(tmp, a.input + ".ply")
-        subprocess.check_call([py, "-c", CHILD_BUNNY, os.path.join(shared, "scanned-meshes", "bun_zipper.ply"), gen, a.input])
+        subprocess.check_call([py, os.path.join(here, "bunny_scan.py"),
+                               os.path.join(shared, "scanned-meshes", "bun_zipper.ply"), gen, a.input])
         a.input = gen
     o3d_out, sk_out = os.path.join(tmp, "open3d.ply"), os.path.join(tmp, "splatkit.ply")
     r, _, o3d_peak = timed([py, "-c", CHILD_O3D, a.input, o3d_out, str(a.depth), "1" if a.flip_normals else "0", str(a.threads)])
