@@ -2,9 +2,8 @@
 """Oriented points from the Stanford bunny scan (scanned-meshes/bun_zipper.ply in the shared
 data), the real-scan inputs of poisson_open3d.py and scripts/make_poisson_fixture.py.
 
-The vertex normal is the normalised sum of the unit normals of the faces around the vertex
-(Open3D's compute_vertex_normals); vertices on no face keep a zero normal, which Open3D and
-splatkit both drop. Kinds:
+The vertex normal is the normalised sum of the unit normals of the faces around the vertex;
+vertices on no face keep a zero normal, which Open3D and splatkit both drop. Kinds:
   bunny-vertices  the scan's 35,947 vertices with those normals
   bunny-200k      200,000 area-uniform points on the scan's faces (numpy seed 0), normals
                   interpolated from the vertex normals and renormalised

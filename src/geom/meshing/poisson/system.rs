@@ -72,8 +72,10 @@ pub struct Level {
     /// Cells whose corners are solved at this level (`C_ℓ`); empty for the
     /// complete levels up to `full_depth`, where every cell is.
     pub cells: BitGrid,
-    /// Cells of the extraction octree at this level (see `extraction_tree`);
-    /// empty for the complete levels.
+    /// Cells of PoissonRecon's tree at this level (see `extraction_tree`);
+    /// empty for the complete levels. The extraction uses their parents (the
+    /// refined cells of the level above), so the sibling groups that
+    /// PoissonRecon completes around the added neighbours are not stored.
     pub tree: BitGrid,
     /// True for the complete levels.
     pub complete: bool,
@@ -192,14 +194,14 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
     let tables = Tables::new();
 
     // Mean area per unit weight, ā.
-    let wsum: f64 = samples.weight.iter().sum();
-    let mean_area = samples
-        .weight
-        .iter()
-        .zip(&sd.area)
-        .map(|(w, a)| w * a)
-        .sum::<f64>()
-        / wsum;
+    // Samples whose merged normals cancel carry no normal and no area
+    // (PoissonRecon's conversion rejects them).
+    let (wsum, wa) = (0..samples.len())
+        .filter(|&i| has_normal(samples, i))
+        .fold((0.0f64, 0.0f64), |(w, wa), i| {
+            (w + samples.weight[i], wa + samples.weight[i] * sd.area[i])
+        });
+    let mean_area = if wsum > 0.0 { wa / wsum } else { 0.0 };
 
     // 1. Splat plan: which samples splat at which level, with which factor.
     let plan = splat_plan(samples, sd, d);
@@ -372,7 +374,7 @@ fn extraction_tree(data: Vec<BitGrid>, full: u32, d: u32) -> Vec<BitGrid> {
 /// splats the fraction dx = 1 − (⌈d⌉ − d) at ⌈d⌉ and the rest one level up.
 fn splat_plan(samples: &Samples, sd: &SampleDepths, d: u32) -> Vec<Vec<(u32, f32)>> {
     let mut plan: Vec<Vec<(u32, f32)>> = (0..=d).map(|_| Vec::new()).collect();
-    for i in 0..samples.len() {
+    for i in (0..samples.len()).filter(|&i| has_normal(samples, i)) {
         let dep = sd.depth[i].clamp(0.0, d as f64);
         let top = dep.ceil().max(0.0) as u32;
         let dx = 1.0 - (top as f64 - dep);
@@ -381,7 +383,8 @@ fn splat_plan(samples: &Samples, sd: &SampleDepths, d: u32) -> Vec<Vec<(u32, f32
             let h3 = 0.125f64.powi(lv as i32);
             plan[lv as usize].push((i as u32, (-a * part / h3) as f32));
         };
-        if top > 0 && dx < 1.0 {
+        // PoissonRecon splats the coarser part only when it exceeds 1e-6.
+        if top > 0 && 1.0 - dx > 1e-6 {
             put(top, dx);
             put(top - 1, 1.0 - dx);
         } else {
@@ -389,6 +392,11 @@ fn splat_plan(samples: &Samples, sd: &SampleDepths, d: u32) -> Vec<Vec<(u32, f32
         }
     }
     plan
+}
+
+/// True when the merged sample's normal sum is not zero.
+fn has_normal(samples: &Samples, i: usize) -> bool {
+    samples.normal[i] != [0.0; 3]
 }
 
 /// The degree-2 normal field of one level from its splat plan.
