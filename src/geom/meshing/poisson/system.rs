@@ -69,9 +69,6 @@ pub struct Level {
     pub active: Vec<Mask>,
     /// χ_{≤ℓ} at valid nodes (NaN elsewhere).
     pub y: Vec<f32>,
-    /// Cells whose corners are solved at this level (`C_ℓ`); empty for the
-    /// complete levels up to `full_depth`, where every cell is.
-    pub cells: BitGrid,
     /// Cells of PoissonRecon's tree at this level (see `extraction_tree`);
     /// empty for the complete levels. The extraction uses their parents (the
     /// refined cells of the level above), so the sibling groups that
@@ -255,7 +252,6 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
                 valid: masks(&valid),
                 active: masks(&active),
                 y: vec![f32::NAN; nb * BRICK_LEN],
-                cells: BitGrid::new(),
                 tree: BitGrid::new(),
                 complete: lv <= full,
                 b: vec![0.0; nb * BRICK_LEN],
@@ -264,9 +260,9 @@ pub fn solve(samples: &Samples, sd: &SampleDepths, p: &SolverParams) -> (Vec<Lev
             }
         })
         .collect();
-    for ((lev, c), t) in levels.iter_mut().zip(cells).zip(tree) {
+    drop(cells);
+    for (lev, t) in levels.iter_mut().zip(tree) {
         if !lev.complete {
-            lev.cells = c;
             lev.tree = t;
         }
     }
@@ -370,15 +366,18 @@ fn extraction_tree(data: Vec<BitGrid>, full: u32, d: u32) -> Vec<BitGrid> {
 }
 
 /// For each level, the samples splatting there and their factor
-/// −a·part/h³ (negated so that χ ≈ 1 inside): a sample at depth estimate d
-/// splats the fraction dx = 1 − (⌈d⌉ − d) at ⌈d⌉ and the rest one level up.
+/// −a·part/h³ · W/|n| (negated so that χ ≈ 1 inside; W/|n| rescales the
+/// merged normal sum n to the sample's weight W, PoissonRecon's conversion:
+/// unit mean normal × weight): a sample at depth estimate d splats the
+/// fraction dx = 1 − (⌈d⌉ − d) at ⌈d⌉ and the rest one level up.
 fn splat_plan(samples: &Samples, sd: &SampleDepths, d: u32) -> Vec<Vec<(u32, f32)>> {
     let mut plan: Vec<Vec<(u32, f32)>> = (0..=d).map(|_| Vec::new()).collect();
     for i in (0..samples.len()).filter(|&i| has_normal(samples, i)) {
         let dep = sd.depth[i].clamp(0.0, d as f64);
         let top = dep.ceil().max(0.0) as u32;
         let dx = 1.0 - (top as f64 - dep);
-        let a = sd.area[i];
+        let n = samples.normal[i];
+        let a = sd.area[i] * samples.weight[i] / (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         let mut put = |lv: u32, part: f64| {
             let h3 = 0.125f64.powi(lv as i32);
             plan[lv as usize].push((i as u32, (-a * part / h3) as f32));
@@ -405,14 +404,7 @@ fn splat(samples: &Samples, plan: &[(u32, f32)], lv: u32) -> VLevel {
     let mut v = VLevel::default();
     for &(i, s) in plan {
         let i = i as usize;
-        // The merged normal, rescaled to the sample's weight (PoissonRecon's
-        // conversion: unit mean normal × weight).
-        let mut n = samples.normal[i];
-        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        if l > 0.0 {
-            let w = samples.weight[i] / l;
-            n = [n[0] * w, n[1] * w, n[2] * w];
-        }
+        let n = samples.normal[i];
         let pos = samples.pos[i];
         let (ix, wx) = b2_weights(pos[0] * res as f64);
         let (iy, wy) = b2_weights(pos[1] * res as f64);
