@@ -97,29 +97,37 @@ pub fn backward(b: &BoundGaussians, g: &GaussianGrads, active_degree: usize) -> 
             }
         }
     }
+    // the element-wise parts in parallel (each output depends on one
+    // Gaussian only, so the bits do not depend on the thread count)
     let mut sh_rest = vec![0.0f32; n * k * 3];
-    for i in 0..n {
-        for kk in 0..per - 1 {
-            let src = g.sh[i * per + 1 + kk];
-            sh_rest[(i * k + kk) * 3..(i * k + kk) * 3 + 3].copy_from_slice(&src);
-        }
+    if k > 0 {
+        sh_rest
+            .par_chunks_mut(k * 3)
+            .enumerate()
+            .for_each(|(i, dst)| {
+                for kk in 0..per - 1 {
+                    dst[kk * 3..kk * 3 + 3].copy_from_slice(&g.sh[i * per + 1 + kk]);
+                }
+            });
     }
     BoundGrads {
         vertices,
-        complex: per_gauss.iter().map(|p| p.1).collect(),
+        complex: per_gauss.par_iter().map(|p| p.1).collect(),
         log_scales: (0..n)
+            .into_par_iter()
             .map(|i| {
                 let s = b.log_scales[i];
                 [g.scales[i][1] * s[0].exp(), g.scales[i][2] * s[1].exp()]
             })
             .collect(),
         opacity_logits: (0..n)
+            .into_par_iter()
             .map(|i| {
                 let a = sigmoid(b.opacity_logits[i]);
                 g.opacities[i] * a * (1.0 - a)
             })
             .collect(),
-        sh_dc: (0..n).map(|i| g.sh[i * per]).collect(),
+        sh_dc: (0..n).into_par_iter().map(|i| g.sh[i * per]).collect(),
         sh_rest,
     }
 }
