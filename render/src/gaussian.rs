@@ -43,7 +43,7 @@ pub use crate::splats::Splats;
 
 pub use crate::tiles::TILE;
 use crate::tiles::{
-    PREFETCH_DISTANCE, TileLists, depth_key, intersect_rects, prefetch_ahead, render_tiles,
+    PREFETCH_DISTANCE, TileLists, depth_key, intersect_rects, prefetch_ahead, render_tile_rows,
     tile_pixels, tile_rect, tile_rect_cuda,
 };
 
@@ -459,6 +459,21 @@ struct PixelOut {
     final_t: f32,
     /// List position one past the last blended contribution.
     last: u32,
+}
+
+/// The rows of one tile row in each output array of [`blend_projected`],
+/// so the tile rows land in parallel.
+struct Band<'a> {
+    rgb: &'a mut [[f32; 3]],
+    alpha: &'a mut [f32],
+    expected_depth: &'a mut [f32],
+    median_depth: &'a mut [f32],
+    normal: &'a mut [[f32; 3]],
+    normal_sum: &'a mut [[f32; 3]],
+    count: &'a mut [u32],
+    final_t: &'a mut [f32],
+    last: &'a mut [u32],
+    weight_sum: &'a mut [f32],
 }
 
 /// The pixels of tile (tx, ty) that a projected Gaussian can reach:
@@ -899,23 +914,48 @@ pub(crate) fn blend_projected(
     let mut final_t = vec![1.0f32; w * h];
     let mut last = vec![0u32; w * h];
     let mut weight_sum = vec![0.0f32; w * h];
-    render_tiles(
+    let band = w * TILE;
+    let mut rgb = out.rgb.chunks_mut(band);
+    let mut alpha = out.alpha.chunks_mut(band);
+    let mut expected_depth = out.expected_depth.chunks_mut(band);
+    let mut median_depth = out.median_depth.chunks_mut(band);
+    let mut normal = out.normal.chunks_mut(band);
+    let mut normal_sum = out.normal_sum.chunks_mut(band);
+    let mut count = out.count.chunks_mut(band);
+    let mut final_t_rows = final_t.chunks_mut(band);
+    let mut last_rows = last.chunks_mut(band);
+    let mut weight_sum_rows = weight_sum.chunks_mut(band);
+    let bands: Vec<Band> = (0..th)
+        .map(|_| Band {
+            rgb: rgb.next().expect("one band per tile row"),
+            alpha: alpha.next().expect("one band per tile row"),
+            expected_depth: expected_depth.next().expect("one band per tile row"),
+            median_depth: median_depth.next().expect("one band per tile row"),
+            normal: normal.next().expect("one band per tile row"),
+            normal_sum: normal_sum.next().expect("one band per tile row"),
+            count: count.next().expect("one band per tile row"),
+            final_t: final_t_rows.next().expect("one band per tile row"),
+            last: last_rows.next().expect("one band per tile row"),
+            weight_sum: weight_sum_rows.next().expect("one band per tile row"),
+        })
+        .collect();
+    render_tile_rows(
         tw,
-        th,
         w,
         h,
+        bands,
         |ti| render_tile(&proj, tiles.list(ti), ti % tw, ti / tw, w, h, s),
-        |o, p| {
-            out.rgb[o] = p.rgb;
-            out.alpha[o] = p.alpha;
-            out.expected_depth[o] = p.expected_depth;
-            out.median_depth[o] = p.median_depth;
-            out.normal[o] = p.normal;
-            out.normal_sum[o] = p.normal_sum;
-            out.count[o] = p.count;
-            final_t[o] = p.final_t;
-            last[o] = p.last;
-            weight_sum[o] = p.weight_sum;
+        |b, o, p| {
+            b.rgb[o] = p.rgb;
+            b.alpha[o] = p.alpha;
+            b.expected_depth[o] = p.expected_depth;
+            b.median_depth[o] = p.median_depth;
+            b.normal[o] = p.normal;
+            b.normal_sum[o] = p.normal_sum;
+            b.count[o] = p.count;
+            b.final_t[o] = p.final_t;
+            b.last[o] = p.last;
+            b.weight_sum[o] = p.weight_sum;
         },
     );
     let state = RasterState {

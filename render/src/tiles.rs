@@ -294,6 +294,38 @@ pub fn render_tiles<T: Send>(
     }
 }
 
+/// [`render_tiles`] with the landing in parallel too: `bands[ty]` is the
+/// caller's mutable view of the image rows of tile row `ty` (`TILE` rows of
+/// `w` pixels, the last band shorter), and `land(band, i, value)` gets the
+/// pixel's index inside its band, `(y − ty·TILE)·w + x`. The tiles of a row
+/// are blended in parallel, the rows too; every pixel receives exactly its
+/// own value, so the result does not depend on the thread count.
+pub fn render_tile_rows<T: Send, B: Send>(
+    tiles_x: usize,
+    w: usize,
+    h: usize,
+    bands: Vec<B>,
+    per_tile: impl Fn(usize) -> Vec<T> + Sync + Send,
+    land: impl Fn(&mut B, usize, T) + Sync + Send,
+) {
+    bands
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(ty, mut band)| {
+            let done: Vec<Vec<T>> = (0..tiles_x)
+                .into_par_iter()
+                .map(|tx| per_tile(ty * tiles_x + tx))
+                .collect();
+            for (tx, values) in done.into_iter().enumerate() {
+                let mut it = values.into_iter();
+                for (x, y) in tile_pixels(ty * tiles_x + tx, tiles_x, w, h) {
+                    let v = it.next().expect("one value per pixel");
+                    land(&mut band, (y - ty * TILE) * w + x, v);
+                }
+            }
+        });
+}
+
 /// How many list entries ahead [`prefetch_ahead`] asks for.
 pub(crate) const PREFETCH_DISTANCE: usize = 8;
 
