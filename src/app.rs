@@ -16,9 +16,11 @@ use crate::ops::{
     version,
     propagate_version = true,
     after_help = "Examples:
-  splatkit demo -o demo-out                 # the built-in demo scene, end to end
+  # the built-in demo scene, end to end
+  splatkit demo -o demo-out
   splatkit info scene.ply
-  splatkit prune-triangles scene.pt --game-engine -o - | splatkit export-off - -o scene.off"
+  splatkit prune-triangles scene.pt --game-engine -o - \\
+      | splatkit export-off - -o scene.off"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -60,7 +62,7 @@ pub enum Command {
     BakeTexture(bake_texture::BakeTextureArgs),
     /// Train Triangle Splatting or 3DGS / SuGaR-regularised Gaussians from photos, on the CPU.
     Train(train::TrainArgs),
-    /// Run the triangle tools end to end on a generated scene.
+    /// Run every stage end to end on generated scenes: Gaussians to a mesh, bound and refined; triangles pruned and exported.
     Demo(demo::DemoArgs),
 }
 

@@ -25,10 +25,14 @@ use crate::model::{Camera, Gaussians, Mesh};
     after_help = "Writes NAME.obj, NAME.mtl and NAME.png (all three, or none on failure).
 
 Examples:
-  bake-texture sugarfine.ply point_cloud.ply --cameras cameras.json -o textured.obj
-  bake-texture mesh.obj refined.ply --cameras sparse/0 -o out/textured.obj --square-size 10
-  bake-texture mesh.ply gaussians.ply --cameras transforms.json -o t.obj --json=bake.json
-  render textured.obj --cameras cameras.json --shading none -o views/   # look at it"
+  bake-texture sugarfine.ply point_cloud.ply --cameras cameras.json \\
+      -o textured.obj
+  bake-texture mesh.obj refined.ply --cameras sparse/0 \\
+      -o out/textured.obj --square-size 10
+  bake-texture mesh.ply gaussians.ply --cameras transforms.json \\
+      -o t.obj --json=bake.json
+  # look at it
+  render textured.obj --cameras cameras.json --shading none -o views/"
 )]
 pub struct BakeTextureArgs {
     /// The mesh to texture (PLY, OBJ, OFF, glTF/GLB): SuGaR's refined mesh.

@@ -35,16 +35,22 @@ pub enum ScaleRuleArg {
 /// Arguments of `bind-gaussians`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  bind-gaussians mesh.ply -o bound.ply                         # 1 Gaussian per triangle, vertex colours
-  bind-gaussians mesh.ply --per-triangle 6 --cameras output/garden/cameras.json -o bound.ply
-  bind-gaussians mesh.ply --colors-from output/garden/point_cloud/iteration_7000/point_cloud.ply -o bound.ply
-  bind-gaussians mesh.ply --images garden/images --cameras garden/sparse/0 -o bound.ply
+  # 1 Gaussian per triangle, vertex colours
+  bind-gaussians mesh.ply -o bound.ply
+  bind-gaussians mesh.ply --per-triangle 6 \\
+      --cameras output/garden/cameras.json -o bound.ply
+  bind-gaussians mesh.ply -o bound.ply \\
+      --colors-from output/garden/point_cloud/iteration_7000/point_cloud.ply
+  bind-gaussians mesh.ply --images garden/images \\
+      --cameras garden/sparse/0 -o bound.ply
   bind-gaussians bound.ply --rebind edited_mesh.obj -o bound_edited.ply
-  bind-gaussians bound.ply --rebind pose_042.ply --scale-rule anisotropic -o frame_042.ply
+  bind-gaussians bound.ply --rebind pose_042.ply --scale-rule anisotropic \\
+      -o frame_042.ply
 
-The output opens in any 3DGS viewer (SuperSplat, SIBR) and in `render`; it also carries
-the binding (face_index, bary_0..2, complex_re, complex_im) and the mesh (elements bound_vertex,
-bound_face), so `--rebind` and `refine` need nothing else.")]
+The output opens in any 3DGS viewer (SuperSplat, SIBR) and in `render`; it
+also carries the binding (face_index, bary_0..2, complex_re, complex_im) and
+the mesh (elements bound_vertex, bound_face), so `--rebind` and `refine` need
+nothing else.")]
 pub struct BindGaussiansArgs {
     /// A mesh to bind to (PLY, OBJ, OFF, glTF/GLB), or, with --rebind, a bound
     /// Gaussians PLY; `-` = stdin.

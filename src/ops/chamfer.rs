@@ -120,10 +120,13 @@ pub enum Protocol {
 #[command(after_help = "Examples:
   chamfer pred.ply gt.ply --tau 0.01,0.02 --json
   chamfer mesh.obj gt_points.ply --sample dtu --spacing 0.2 --max-dist 20
-  chamfer --protocol dtu --scan 24 --dataset-dir DTU_OFFICIAL mesh_mm.ply --vis-dir vis/
+  chamfer --protocol dtu --scan 24 --dataset-dir DTU_OFFICIAL mesh_mm.ply \\
+      --vis-dir vis/
   chamfer --protocol dtu --scan 24 --dataset-dir DTU_OFFICIAL fuse_post.ply \\
-          --cull --cameras scan24/cameras.npz --masks scan24/mask --json=scan24.json
-  chamfer --protocol tnt --scene Barn --gt-dir TNT_GT/Barn --traj Barn_COLMAP_SfM.log mesh.ply --plot pr.png")]
+      --cull --cameras scan24/cameras.npz --masks scan24/mask \\
+      --json=scan24.json
+  chamfer --protocol tnt --scene Barn --gt-dir TNT_GT/Barn \\
+      --traj Barn_COLMAP_SfM.log mesh.ply --plot pr.png")]
 pub struct ChamferArgs {
     /// Prediction (and, in generic mode, ground truth): PLY points or meshes, OBJ, OFF, GLB.
     /// (TnT also takes the prediction as `--ply-path`.)

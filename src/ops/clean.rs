@@ -17,9 +17,11 @@ use crate::io::detect::FileFormat;
 /// Arguments of `clean`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  clean mesh.ply -o clean.ply                          # all default steps
+  # all default steps
+  clean mesh.ply -o clean.ply
   poisson pts.ply -o - | clean - --keep-largest 1 -o object.ply
-  clean scan.obj --no-nonmanifold --min-component-faces 100 -o scan_clean.obj --json=r.json")]
+  clean scan.obj --no-nonmanifold --min-component-faces 100 \\
+      -o scan_clean.obj --json=r.json")]
 pub struct CleanArgs {
     /// Input mesh (PLY, OBJ, OFF, glTF/GLB); `-` = stdin.
     #[arg(default_value = "-")]

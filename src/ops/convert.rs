@@ -21,19 +21,25 @@ use crate::model::{Gaussians, Scene, SceneKind};
 #[command(
     after_help = "Formats (--format / --input-format names and output extensions):
   ply             .ply             graphdeco 3DGS PLY (keeps everything)
-  compressed-ply  .compressed.ply  SuperSplat / PlayCanvas compressed PLY (SH up to degree 3)
-  spz             .spz             Niantic SPZ version 4 (SH up to degree 3; reads versions 1-4)
-  splat           .splat           antimatter15 .splat (no SH above DC, colour clamped to 0..1)
+  compressed-ply  .compressed.ply  SuperSplat / PlayCanvas compressed PLY
+                                   (SH up to degree 3)
+  spz             .spz             Niantic SPZ version 4 (SH up to degree 3;
+                                   reads versions 1-4)
+  splat           .splat           antimatter15 .splat (no SH above DC,
+                                   colour clamped to 0..1)
   ksplat          .ksplat          GaussianSplats3D KSPLAT (read only)
-The input format is detected from the content, then the extension; a .splat has no header, so
-through stdin it needs --input-format splat.
+The input format is detected from the content, then the extension; a .splat
+has no header, so through stdin it needs --input-format splat.
 
 Examples:
-  convert scene.ply -o scene.compressed.ply              # refuses values it would clamp
+  # refuses values it would clamp
+  convert scene.ply -o scene.compressed.ply
   convert scene.ply -o scene.splat --lossy --json=err.json
   convert scene.spz -o scene.compressed.ply
-  convert scene.compressed.ply -o scene.ply              # decompress
-  cat scene.splat | convert - --input-format splat --format ply -o - > scene.ply"
+  # decompress
+  convert scene.compressed.ply -o scene.ply
+  cat scene.splat | convert - --input-format splat --format ply -o - \\
+      > scene.ply"
 )]
 pub struct ConvertArgs {
     /// Input Gaussians (any format splatkit reads); `-` = stdin.

@@ -15,7 +15,8 @@ use crate::io::detect::FileFormat;
 /// Arguments of `decimate`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  decimate mesh.ply --faces 200000 -o small.ply       # SuGaR's coarse-mesh target
+  # SuGaR's coarse-mesh target
+  decimate mesh.ply --faces 200000 -o small.ply
   poisson pts.ply --depth 10 -o - | decimate - --faces 1000000 -o mesh.ply
   decimate mesh.obj --vertices 50000 -o mesh_50k.obj --json=report.json")]
 pub struct DecimateArgs {

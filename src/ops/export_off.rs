@@ -21,9 +21,11 @@ use crate::model::{Scene, SceneKind};
 /// Command-line arguments of `export-off`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  export-off point_cloud_state_dict.pt -o scene.off          # byte-compatible with create_off.py
+  # byte-compatible with create_off.py
+  export-off point_cloud_state_dict.pt -o scene.off
   export-off scene.pt --format glb -o scene.glb --alpha
-  export-off scene.pt --off-layout compatible -o scene.off   # Open3D reads the colours
+  # Open3D reads the colours
+  export-off scene.pt --off-layout compatible -o scene.off
   prune-triangles scene.pt --game-engine -o - | export-off - -o solid.off")]
 pub struct ExportOffArgs {
     /// Input: Triangle Splatting checkpoint (.pt), soup PLY, or a mesh (PLY/OBJ/OFF/GLB); `-` = stdin.

@@ -23,9 +23,12 @@ use crate::io::detect::FileFormat;
 /// Arguments of `poisson`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  poisson points.ply -o mesh.ply                       # depth 8, Open3D / PoissonRecon defaults
-  poisson points.ply --depth 10 --trim-quantile 0.1 -o mesh.ply   # SuGaR's settings
-  splat2points scene.ply --cameras cameras.json | poisson - --depth 10 -o - | clean - -o mesh.ply
+  # depth 8, Open3D / PoissonRecon defaults
+  poisson points.ply -o mesh.ply
+  # SuGaR's settings
+  poisson points.ply --depth 10 --trim-quantile 0.1 -o mesh.ply
+  splat2points scene.ply --cameras cameras.json \\
+      | poisson - --depth 10 -o - | clean - -o mesh.ply
   poisson scan.ply --flip-normals --depth 9 --json=stats.json -o mesh.ply")]
 pub struct PoissonArgs {
     /// Oriented point cloud PLY (x y z nx ny nz, optional red green blue); `-` = stdin.

@@ -37,13 +37,18 @@ use crate::train::trainer::Trainer;
 /// Arguments of `refine`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  refine bound.ply --images scene/images --cameras scene/sparse/0 -o refined/ --short
-  refine bound.ply --images dtu/image --masks dtu/mask --cameras dtu/cameras_sphere.npz \\
-         --downscale 2 --white-background -o dtu_refined/
-  refine bound.ply --images imgs --cameras cameras.json -o run/ --iterations 1000
-  refine bound.ply --images imgs --cameras cameras.json -o run/ --iterations 2000 --resume run/
+  refine bound.ply --images scene/images --cameras scene/sparse/0 \\
+      -o refined/ --short
+  refine bound.ply --images dtu/image --masks dtu/mask \\
+      --cameras dtu/cameras_sphere.npz --downscale 2 --white-background \\
+      -o dtu_refined/
+  refine bound.ply --images imgs --cameras cameras.json -o run/ \\
+      --iterations 1000
+  refine bound.ply --images imgs --cameras cameras.json -o run/ \\
+      --iterations 2000 --resume run/
 
-Outputs in OUT_DIR: refined_bound.ply, refined_mesh.ply, metrics.json, checkpoint/.")]
+Outputs in OUT_DIR: refined_bound.ply, refined_mesh.ply, metrics.json,
+checkpoint/.")]
 pub struct RefineArgs {
     /// Bound Gaussians (from `bind-gaussians`, or a previous `refine`).
     pub bound: PathBuf,

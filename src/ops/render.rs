@@ -58,10 +58,14 @@ pub enum Shading {
 #[command(after_help = "Examples:
   render point_cloud.ply --cameras cameras.json -o renders/
   render scene.pt --cameras sparse/0 -o renders/ --compare images/ --json
-  render 2dgs_model.ply --cameras cameras.json -o renders/ --depth-ratio 0   # 2DGS surfels, 2DGS's surf_depth
-  render mesh.ply --cameras cameras.npz -o depth/ --outputs depth --depth-scale 1000
-  render biker.ply --orbit 8 --up 0,-1,0 -o orbit/     # no camera file: orbit the scene
-  render textured.obj --cameras cameras.json --shading none -o views/  # texture as baked")]
+  # 2DGS surfels, 2DGS's surf_depth
+  render 2dgs_model.ply --cameras cameras.json -o renders/ --depth-ratio 0
+  render mesh.ply --cameras cameras.npz -o depth/ --outputs depth \\
+      --depth-scale 1000
+  # no camera file: orbit the scene
+  render biker.ply --orbit 8 --up 0,-1,0 -o orbit/
+  # texture as baked
+  render textured.obj --cameras cameras.json --shading none -o views/")]
 pub struct RenderArgs {
     /// Scene: 3DGS Gaussian PLY, 2DGS surfel PLY (rendered with 2DGS's
     /// surfel rasteriser), Triangle Splatting `.pt` or soup PLY, or a mesh

@@ -67,12 +67,19 @@ impl DepthArg {
 /// Arguments of `splat2points`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  splat2points output/garden/ -o points.ply                 # 3DGS model folder: latest iteration, cameras.json
-  splat2points scene.ply --cameras sparse/0 --level 0.1,0.3,0.5 --provenance -o points.ply
-  splat2points scene.ply --cameras cameras.json | poisson - --depth 10 -o mesh.ply
-  splat2points scene.ply --cameras cameras.json --method centers -o centres.ply
-  splat2points biker.ply --orbit 24 --elevation 30,-20 --size 1024x768 -o points.ply   # no cameras: orbit
-  splat2points 2dgs_output/ -o points.ply                   # 2DGS surfels: their rendered depth (--method depth)")]
+  # 3DGS model folder: latest iteration, cameras.json
+  splat2points output/garden/ -o points.ply
+  splat2points scene.ply --cameras sparse/0 --level 0.1,0.3,0.5 \\
+      --provenance -o points.ply
+  splat2points scene.ply --cameras cameras.json \\
+      | poisson - --depth 10 -o mesh.ply
+  splat2points scene.ply --cameras cameras.json --method centers \\
+      -o centres.ply
+  # no cameras: orbit
+  splat2points biker.ply --orbit 24 --elevation 30,-20 --size 1024x768 \\
+      -o points.ply
+  # 2DGS surfels: their rendered depth (--method depth)
+  splat2points 2dgs_output/ -o points.ply")]
 pub struct Splat2PointsArgs {
     /// A 3DGS Gaussian PLY or 2DGS surfel PLY, or a 3DGS / 2DGS model folder
     /// (uses `point_cloud/iteration_*/point_cloud.ply` and `cameras.json`).

@@ -24,17 +24,23 @@ use splatkit_render::gaussian_integrate::IntegrateSettings;
 /// Arguments of `tetra-mesh`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  tetra-mesh output/garden/ -o mesh.ply                          # GOF model folder: latest iteration, cameras.json
-  tetra-mesh point_cloud.ply --cameras cameras.json -o mesh.ply   # GOF's extract_mesh.py defaults
-  tetra-mesh scene.ply --cameras sparse/0 --filter-mesh -o mesh.ply   # GOF's --filter_mesh
-  tetra-mesh scene.ply --cameras cams.json --cameras-subset 20 --iterations 6 -o quick.ply
-  tetra-mesh scene.ply --cameras cams.json -o mesh.ply && chamfer mesh.ply gt.ply --json
+  # GOF model folder: latest iteration, cameras.json
+  tetra-mesh output/garden/ -o mesh.ply
+  # GOF's extract_mesh.py defaults
+  tetra-mesh point_cloud.ply --cameras cameras.json -o mesh.ply
+  # GOF's --filter_mesh
+  tetra-mesh scene.ply --cameras sparse/0 --filter-mesh -o mesh.ply
+  tetra-mesh scene.ply --cameras cams.json --cameras-subset 20 \\
+      --iterations 6 -o quick.ply
+  tetra-mesh scene.ply --cameras cams.json -o mesh.ply \\
+      && chamfer mesh.ply gt.ply --json
 
-GOF's rules (docs/gof_extraction.md): points = the 8 corners of each Gaussian's ±3σ box and its
-centre, kept where a camera sees them; their Delaunay tetrahedralisation; per point the opacity
-accumulated along each camera's ray up to it, minimum over the views, alpha = 1 − that; marching
-tetrahedra on alpha = --level; --iterations halvings of each cut edge. Gaussians carrying
-`filter_3D` are used with the filter applied, as GOF does.")]
+GOF's rules (docs/gof_extraction.md): points = the 8 corners of each
+Gaussian's ±3σ box and its centre, kept where a camera sees them; their
+Delaunay tetrahedralisation; per point the opacity accumulated along each
+camera's ray up to it, minimum over the views, alpha = 1 − that; marching
+tetrahedra on alpha = --level; --iterations halvings of each cut edge.
+Gaussians carrying `filter_3D` are used with the filter applied, as GOF does.")]
 pub struct TetraMeshArgs {
     /// A 3DGS / GOF / Mip-Splatting Gaussian PLY, or a model folder (uses
     /// `point_cloud/iteration_*/point_cloud.ply` and `cameras.json`).

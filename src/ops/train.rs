@@ -64,25 +64,29 @@ pub struct TrainArgs {
 pub enum TrainModel {
     /// Triangle Splatting (MCMC densification; optional game-engine phase).
     #[command(after_help = "Examples:
-  train triangles scene/ -o run/ --outdoor --iterations 30000 --max-shapes 500000
-  train triangles dtu_scan24/ -o run/ --indoor --downscale 4 --max-shapes 200000
+  train triangles scene/ -o run/ --outdoor --iterations 30000 \\
+      --max-shapes 500000
+  train triangles dtu_scan24/ -o run/ --indoor --downscale 4 \\
+      --max-shapes 200000
   train triangles scene/ -o run/ --game-engine
   train triangles scene/ -o run/ --iterations 30000 --resume run/
   train triangles scene/ -o run/ --iterations 7000 --schedule reference
 
-Outputs in OUT_DIR: point_cloud/iteration_N/{point_cloud_state_dict.pt, triangles.ply},
-cameras.json, cfg_args, input.ply, metrics.json, checkpoint/.")]
+Outputs in OUT_DIR: point_cloud/iteration_N/{point_cloud_state_dict.pt,
+triangles.ply}, cameras.json, cfg_args, input.ply, metrics.json, checkpoint/.")]
     Triangles(TriangleArgs),
     /// 3DGS, optionally with SuGaR's coarse regularisation.
     #[command(after_help = "Examples:
-  train gaussians scene/ -o run/                          # vanilla 3DGS, 30000 iterations
-  train gaussians scene/ -o run/ --regularize density     # SuGaR coarse, 15000 iterations
+  # vanilla 3DGS, 30000 iterations
+  train gaussians scene/ -o run/
+  # SuGaR coarse, 15000 iterations
+  train gaussians scene/ -o run/ --regularize density
   train gaussians dtu_scan24/ -o run/ --regularize sdf --downscale 4
   train gaussians scene/ -o run/ --iterations 7000 --schedule reference
   splatkit splat2points run/ -o - | splatkit poisson - -o mesh.ply
 
-Outputs in OUT_DIR: point_cloud/iteration_N/point_cloud.ply, cameras.json, cfg_args,
-input.ply, metrics.json, checkpoint/.")]
+Outputs in OUT_DIR: point_cloud/iteration_N/point_cloud.ply, cameras.json,
+cfg_args, input.ply, metrics.json, checkpoint/.")]
     Gaussians(GaussianArgs),
 }
 

@@ -32,11 +32,16 @@ use splatkit_render::gaussian::Filter2d;
 /// Arguments of `tsdf-fuse`.
 #[derive(Args, Debug, Clone)]
 #[command(after_help = "Examples:
-  tsdf-fuse point_cloud.ply --cameras cameras.json -o fuse.ply          # 2DGS defaults from the cameras
-  tsdf-fuse 2dgs/point_cloud/iteration_30000/point_cloud.ply --cameras 2dgs/cameras.json -o fuse.ply   # 2DGS surfels, as its render.py
-  tsdf-fuse scene.pt --cameras scan24/cameras.npz --masks scan24/mask --dtu -o fuse_post.ply
+  # 2DGS defaults from the cameras
+  tsdf-fuse point_cloud.ply --cameras cameras.json -o fuse.ply
+  # 2DGS surfels, as its render.py
+  tsdf-fuse 2dgs/point_cloud/iteration_30000/point_cloud.ply \\
+      --cameras 2dgs/cameras.json -o fuse.ply
+  tsdf-fuse scene.pt --cameras scan24/cameras.npz --masks scan24/mask \\
+      --dtu -o fuse_post.ply
   tsdf-fuse --depth renders/ --cameras sparse/0 --color renders/ -o mesh.ply
-  render scene.ply --cameras cams.json -o d/ --outputs rgb,depth && tsdf-fuse --depth d/ --color d/ --cameras cams.json -o m.ply")]
+  render scene.ply --cameras cams.json -o d/ --outputs rgb,depth \\
+      && tsdf-fuse --depth d/ --color d/ --cameras cams.json -o m.ply")]
 pub struct TsdfFuseArgs {
     /// Scene to render depth from: 3DGS Gaussian PLY, 2DGS surfel PLY
     /// (rendered with 2DGS's surfel rasteriser), Triangle Splatting `.pt` or
