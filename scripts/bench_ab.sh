@@ -13,6 +13,9 @@
 # Compare the timing lines by eye and the output lines (counts, metrics) with
 # `diff <(grep -v ' s\b' OUT/NAME.base.1.txt) ...`; scripts/compare_builds.sh checks output files.
 # Nothing else should run meanwhile (pause other jobs with SIGSTOP).
+# environment: REPS [2]  base/new pairs per bench.
+# It builds and runs both trees' benches with cargo on purpose (those trees are what it measures), so an
+# installed splatkit (SPLATKIT_BIN, PATH) plays no part. Needs: cargo, git, bc; no Python.
 set -euo pipefail
 base=$(realpath "${1:?usage: $0 BASE_DIR [OUT] [BENCH...]}")
 cd "$(dirname "$0")/.."

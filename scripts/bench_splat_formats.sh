@@ -15,6 +15,9 @@
 # Needs: cargo, numpy, node/npm (installs @playcanvas/splat-transform 2.7.1 and
 # @mkkellogg/gaussian-splats-3d 0.4.7 + three into WORKDIR/npm). Files are read once
 # before timing (page cache warm). SKIP_BUILD=1 uses the binaries already in target/release.
+# It builds this checkout's `convert` and examples/read_splats on purpose (their readers are what it
+# measures), so an installed splatkit (SPLATKIT_BIN, PATH) plays no part.
+# environment: SKIP_BUILD [empty: build]. Python: numpy (the generated scene).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-/tmp/splatkit-bench-splats}"

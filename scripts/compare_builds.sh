@@ -17,6 +17,8 @@
 #      capture.
 # Exit 0 when all outputs match, 1 when any differs (the differing files are listed), 2 on a
 # failed step.
+# The two binaries are arguments on purpose (it compares two builds), so SPLATKIT_BIN and a splatkit on
+# PATH play no part; it builds nothing itself. Needs: jq, bc; no Python.
 set -euo pipefail
 old=$(realpath "${1:?usage: $0 OLD_BIN NEW_BIN [OUT]}")
 new=$(realpath "${2:?usage: $0 OLD_BIN NEW_BIN [OUT]}")

@@ -11,8 +11,24 @@
 # DATA is the NeuS layout (cameras_sphere.npz, image_*/, mask/); no DTU ground-truth points ship with the
 # shared data, so the meshes are judged by pictures here (and by `chamfer --protocol dtu --cull` where the
 # official data is at hand). Peak memory is GNU time's maximum resident set size.
+#
+# Variables (defaults in brackets):
+#   DATA        [$SPLATKIT_SHARED_DATA/dtu-scan24-neus; SPLATKIT_SHARED_DATA: ../shared/data beside this
+#               checkout, as the tests read it]  the scan, NeuS layout
+#   OUT         [dtu24-train]  output folder       DOWNSCALE [4]  of the 1600x1200 cameras
+#   TRI_ITERS   [30000]        train triangles     GS_ITERS  [15000]  train gaussians
+#   MAX_SHAPES  [500000]       train triangles --max-shapes
+#   REG         [density]      train gaussians --regularize
+#   INIT_POINTS [100000]       --init-points       SEED      [0]
+#   SPLATKIT    [$SPLATKIT_BIN, else `splatkit` on PATH, else `cargo run` of this checkout;
+#                scripts/lib/splatkit_bin.mk]
+# Needs: GNU time (/usr/bin/time), python3 with Pillow (pip install pillow) for the pictures
+# (scripts/dtu_train_pictures.py); scripts/dtu_train_summary.py needs the standard library only.
 
-DATA       ?= ../shared/data/dtu-scan24-neus
+SCRIPTS    := $(dir $(lastword $(MAKEFILE_LIST)))
+include $(SCRIPTS)lib/splatkit_bin.mk
+
+DATA       ?= $(or $(SPLATKIT_SHARED_DATA),$(abspath $(SPLATKIT_REPO)/../shared/data))/dtu-scan24-neus
 OUT        ?= dtu24-train
 DOWNSCALE  ?= 4
 TRI_ITERS  ?= 30000
@@ -21,7 +37,6 @@ MAX_SHAPES ?= 500000
 REG        ?= density
 INIT_POINTS ?= 100000
 SEED       ?= 0
-SPLATKIT   ?= cargo run --release --quiet --bin splatkit --
 TIME       := /usr/bin/time -f '%e s, %M KiB'
 
 .PHONY: all clean
@@ -50,11 +65,11 @@ $(OUT)/gaussians_mesh.ply: $(OUT)/gaussians/metrics.json
 	    | $(SPLATKIT) clean - --keep-largest 1 --quiet -o $@'
 
 $(OUT)/pictures/done: $(OUT)/triangles_mesh.ply $(OUT)/gaussians_mesh.ply
-	python3 $(dir $(lastword $(MAKEFILE_LIST)))dtu_train_pictures.py $(OUT) $(DATA) "$(SPLATKIT)"
+	python3 $(SCRIPTS)dtu_train_pictures.py $(OUT) $(DATA) "$(SPLATKIT)"
 	@touch $@
 
 $(OUT)/summary.md: $(OUT)/pictures/done
-	python3 $(dir $(lastword $(MAKEFILE_LIST)))dtu_train_summary.py $(OUT) | tee $@
+	python3 $(SCRIPTS)dtu_train_summary.py $(OUT) | tee $@
 
 clean:
 	rm -rf $(OUT)

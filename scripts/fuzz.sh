@@ -16,6 +16,8 @@
 # Prints one JSON line per reader (executions, Ok / Err, crashes, big allocations, CPU and wall seconds);
 # crashing inputs are saved as OUT/crash-READER-N.bin and replayed with
 #   target/release/examples/fuzz_readers --replay FILE --reader READER
+# It builds examples/fuzz_readers with cargo (an example, never installed); it runs no splatkit
+# command, so SPLATKIT_BIN plays no part. Needs: cargo; no Python.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 default_out=fuzz-out

@@ -17,6 +17,8 @@
 # class, CPU seconds) and the distinct failure kinds, also in OUT/summary.md; each failing
 # case is kept in OUT/failures/COMMAND-N/ with cmd.txt, stderr.txt, classes.txt, the
 # work folder as it was before the run, and replay.sh (runs it again under the same limits).
+# It builds and fuzzes this checkout's target/PROFILE/splatkit on purpose (that build is what it tests), so
+# an installed splatkit (SPLATKIT_BIN, PATH) plays no part. Needs: cargo; no Python.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 default_out=fuzz-commands-out

@@ -22,7 +22,9 @@
 #   VIEWS    [40]  training photos            SIZE  [128]   photo width = height, pixels
 #   TAU      [0.01]  TnT threshold, scene units (the shapes have radius 1)
 #   THREADS  [empty: all cores]  --threads for every command
-#   SPLATKIT [$SPLATKIT_BIN, else `splatkit` on PATH, else target/release/splatkit built here]
+#   SPLATKIT [$SPLATKIT_BIN, else `splatkit` on PATH, else target/release/splatkit built here; the rule of
+#            scripts/lib/splatkit_bin.mk, with SPLATKIT_FALLBACK set to that binary (built once, not `cargo run`
+#            per stage)]
 #   SCENEGEN [target/release/examples/mesh_bench_scene, built here]
 # Needs: cargo (to build the scene generator, and splatkit when none is installed), python3 (standard
 # library only).
@@ -35,7 +37,8 @@ SIZE     ?= 128
 TAU      ?= 0.01
 THREADS  ?=
 REPO     := $(abspath $(dir $(lastword $(MAKEFILE_LIST)))..)
-SPLATKIT ?= $(or $(SPLATKIT_BIN),$(shell command -v splatkit 2>/dev/null),$(REPO)/target/release/splatkit)
+SPLATKIT_FALLBACK := $(REPO)/target/release/splatkit
+include $(REPO)/scripts/lib/splatkit_bin.mk
 SCENEGEN ?= $(REPO)/target/release/examples/mesh_bench_scene
 TIMED    := python3 $(REPO)/scripts/timed.py
 METHODS  := sugar tsdf tetra

@@ -6,16 +6,16 @@
 #   -> poisson (depth 9, 10% density trim) -> clean (components under 1% of the area go)
 #   -> render splats and mesh from orbit view 0 (480x360, white background)
 # Usage: scripts/real_meshes.sh [OUT_DIR] [DATA_DIR]
-#   OUT_DIR   default: real-meshes/ ; DATA_DIR default: ../shared/data
-# The splatkit binary: $SPLATKIT, else `splatkit` on PATH, else target/release/splatkit.
+#   OUT_DIR   default: real-meshes/ ; DATA_DIR default: $SPLATKIT_SHARED_DATA, else ../shared/data
+#             beside this checkout
+# environment: SPLATKIT, SPLATKIT_BIN  the splatkit to run [$SPLATKIT, else $SPLATKIT_BIN, else `splatkit`
+#   on PATH, else target/release/splatkit built with cargo; scripts/lib/splatkit_bin.sh]
+# Needs: no Python.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 out=${1:-real-meshes}
-data=${2:-$here/../shared/data}
-sk=${SPLATKIT:-}
-if [ -z "$sk" ]; then
-  if command -v splatkit >/dev/null 2>&1; then sk=splatkit; else sk="$here/target/release/splatkit"; fi
-fi
+data=${2:-${SPLATKIT_SHARED_DATA:-$here/../shared/data}}
+. "$here/scripts/lib/splatkit_bin.sh"
 for name in biker guitar; do
   scene="$data/3dgs-playcanvas-$name/$name.decoded_sh0.ply"
   if [ ! -f "$scene" ]; then

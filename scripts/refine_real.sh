@@ -5,22 +5,31 @@
 # clean | decimate); Gaussians are bound to it (1 per face, colours from the
 # splats) and refined. Held-out views are every 8th orbit view.
 #
-# usage: scripts/refine_real.sh [OUT] [DATA_DIR]     (ITERS, SIZE, FACES override)
+# usage: scripts/refine_real.sh [OUT] [DATA_DIR]
+#   OUT       [refine-real]  output folder, one subfolder per capture
+#   DATA_DIR  [$SPLATKIT_SHARED_DATA, else ../shared/data beside this checkout]  holds
+#             3dgs-playcanvas-NAME/NAME.decoded_sh0.ply for each NAME
+# environment (defaults in brackets):
+#   NAMES [guitar biker]  the captures to run, space-separated (e.g. NAMES=guitar for one)
+#   ITERS [2000] refine iterations   SIZE [320x240] photo size   FACES [100000] decimation target
+#   SPLATKIT, SPLATKIT_BIN  the splatkit to run [$SPLATKIT, else $SPLATKIT_BIN, else `splatkit` on PATH,
+#             else target/release/splatkit built with cargo; scripts/lib/splatkit_bin.sh]
+# Needs: GNU time (/usr/bin/time); no Python.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 out=${1:-refine-real}
-data=${2:-$here/../shared/data}
+data=${2:-${SPLATKIT_SHARED_DATA:-$here/../shared/data}}
 iters=${ITERS:-2000}
 size=${SIZE:-320x240}
 faces=${FACES:-100000}
 names=${NAMES:-guitar biker}
-sk=${SPLATKIT:-}
-if [ -z "$sk" ]; then
-  if command -v splatkit >/dev/null 2>&1; then sk=splatkit; else sk="$here/target/release/splatkit"; fi
-fi
 for name in $names; do
   scene="$data/3dgs-playcanvas-$name/$name.decoded_sh0.ply"
-  [ -f "$scene" ] || { echo "refine_real.sh: $scene not found (give DATA_DIR)" >&2; exit 1; }
+  [ -f "$scene" ] || { echo "refine_real.sh: $scene not found (give DATA_DIR, or NAMES)" >&2; exit 1; }
+done
+. "$here/scripts/lib/splatkit_bin.sh"
+for name in $names; do
+  scene="$data/3dgs-playcanvas-$name/$name.decoded_sh0.ply"
   d="$out/$name"
   mkdir -p "$d"
   t0=$(date +%s)

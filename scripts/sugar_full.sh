@@ -10,10 +10,12 @@
 #                   from the cameras stand in for the photos (so refinement fits the splats)
 # environment: FACES (decimation target, default 200000, SuGaR's low-poly setting), PER_FACE (1),
 #   ITERS (2000, SuGaR's --short), DEPTH (Poisson depth, 10), SIZE (photo size for made-up views, 640x480),
-#   SPLATKIT (the binary to use)
+#   SPLATKIT, SPLATKIT_BIN (the splatkit to run: $SPLATKIT, else $SPLATKIT_BIN, else `splatkit` on PATH,
+#   else target/release/splatkit built with cargo; scripts/lib/splatkit_bin.sh)
+# Needs: python3 (standard library only) for the summary.
 set -euo pipefail
 if [ $# -lt 2 ]; then
-  sed -n '2,16p' "$0" >&2
+  sed -n '2,/^[^#]/{/^#/p}' "$0" >&2
   exit 2
 fi
 scene=$1
@@ -25,10 +27,7 @@ iters=${ITERS:-2000}
 depth=${DEPTH:-10}
 size=${SIZE:-640x480}
 here="$(cd "$(dirname "$0")/.." && pwd)"
-sk=${SPLATKIT:-}
-if [ -z "$sk" ]; then
-  if command -v splatkit >/dev/null 2>&1; then sk=splatkit; else sk="$here/target/release/splatkit"; fi
-fi
+. "$here/scripts/lib/splatkit_bin.sh"
 mkdir -p "$out"
 declare -a rows
 stage() { # name, then the command

@@ -10,11 +10,12 @@
 #   FACES      decimation target (SuGaR: 1000000 via train.py, 200000 for a light mesh)
 #   LEVEL      density level (SuGaR: 0.3)
 #   DEPTH      Poisson depth (SuGaR: 10; its README suggests 6-8 for close-up objects)
-# The splatkit binary: $SPLATKIT, else `splatkit` on PATH, else target/release/splatkit.
+# environment: SPLATKIT, SPLATKIT_BIN  the splatkit to run [$SPLATKIT, else $SPLATKIT_BIN, else `splatkit`
+#   on PATH, else target/release/splatkit built with cargo; scripts/lib/splatkit_bin.sh]. No Python.
 # See docs/sugar_mesh.md for what each step does and how it differs from SuGaR.
 set -euo pipefail
 if [ $# -lt 2 ]; then
-  sed -n '2,13p' "$0" >&2
+  sed -n '2,/^[^#]/{/^#/p}' "$0" >&2
   exit 2
 fi
 model=$1
@@ -22,18 +23,11 @@ out=$2
 faces=${3:-1000000}
 level=${4:-0.3}
 depth=${5:-10}
-sk=${SPLATKIT:-}
-if [ -z "$sk" ]; then
-  if command -v splatkit >/dev/null 2>&1; then
-    sk=splatkit
-  else
-    sk="$(dirname "$0")/../target/release/splatkit"
-  fi
-fi
 if [ ! -f "$model/cameras.json" ]; then
   echo "sugar_mesh.sh: $model/cameras.json not found (is $model a 3DGS output folder?)" >&2
   exit 1
 fi
+. "$(dirname "$0")/lib/splatkit_bin.sh"
 mkdir -p "$out"
 "$sk" splat2points "$model" --level "$level" -o "$out/points.ply"
 "$sk" poisson "$out/points.ply" --sugar --depth "$depth" \

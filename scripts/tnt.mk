@@ -14,7 +14,20 @@
 # 2DGS's released TnT script instead uses the bounded one, e.g.
 #   FUSE_FLAGS="--voxel 0.004 --sdf-trunc 0.016 --depth-trunc 3.0"   (Barn, Caterpillar, Ignatius, Truck)
 #   FUSE_FLAGS="--voxel 0.006 --sdf-trunc 0.024 --depth-trunc 4.5"   (Meetingroom, Courthouse)
-# DOWNSCALE is the render size divisor (2DGS trains TnT at -r 2). SPLATKIT is the binary to use.
+# DOWNSCALE is the render size divisor (2DGS trains TnT at -r 2).
+#
+# Variables (defaults in brackets):
+#   SCENES, TNT_DATA, TNT_GT [required]  as above
+#   OUT        [tnt-eval]  output folder          SEED [0]  chamfer's seed
+#   DOWNSCALE  [2]         MESH_RES [1024]  the unbounded TSDF's --mesh-res
+#   FUSE_FLAGS [--unbounded --mesh-res $(MESH_RES)]
+#   TNT_SCENES [Barn Caterpillar Ignatius Truck Meetingroom Courthouse]
+#   SPLATKIT   [$SPLATKIT_BIN, else `splatkit` on PATH, else `cargo run` of this checkout;
+#               scripts/lib/splatkit_bin.mk]
+# Needs: python3 (standard library only) for the summary.
+
+SCRIPTS    := $(dir $(lastword $(MAKEFILE_LIST)))
+include $(SCRIPTS)lib/splatkit_bin.mk
 
 SCENES     ?= $(error set SCENES to the folder of trained scenes <Scene>.ply / <Scene>.pt)
 TNT_DATA   ?= $(error set TNT_DATA to the folder holding <Scene>/sparse/0 and <Scene>/<Scene>_COLMAP_SfM.log)
@@ -24,7 +37,6 @@ SEED       ?= 0
 DOWNSCALE  ?= 2
 MESH_RES   ?= 1024
 FUSE_FLAGS ?= --unbounded --mesh-res $(MESH_RES)
-SPLATKIT   ?= cargo run --release --quiet --bin splatkit --
 TNT_SCENES ?= Barn Caterpillar Ignatius Truck Meetingroom Courthouse
 
 JSONS := $(foreach s,$(TNT_SCENES),$(OUT)/$(s).json)

@@ -6,27 +6,32 @@
 #   3. train gaussians --regularize density (SuGaR coarse) -> splat2points | poisson -> distance
 # Distances by examples/sphere_distance (area samples of the mesh vs the exact sphere).
 #
-#   scripts/train_sphere.sh OUT [TRI_ITERS=3000] [GS_ITERS=3000]
+#   scripts/train_sphere.sh OUT [TRI_ITERS=3000] [GS_ITERS=3000]      (OUT is relative to the checkout)
+# environment: SPLATKIT, SPLATKIT_BIN  the splatkit to run [$SPLATKIT, else $SPLATKIT_BIN, else `splatkit`
+#   on PATH, else target/release/splatkit built with cargo; scripts/lib/splatkit_bin.sh]. The two examples
+#   (sphere_dataset, sphere_distance) are always built here with cargo: they are not installed commands.
+# Needs: cargo, GNU time (/usr/bin/time), python3 (standard library only) for the summary.
 set -euo pipefail
 OUT=${1:?usage: train_sphere.sh OUT [TRI_ITERS] [GS_ITERS]}
 TI=${2:-3000}
 GI=${3:-3000}
 cd "$(dirname "$0")/.."
-cargo build --release --quiet --bin splatkit --example sphere_dataset --example sphere_distance
-B=target/release/splatkit
+. scripts/lib/splatkit_bin.sh
+cargo build --release --quiet --example sphere_dataset --example sphere_distance
+B=$sk
 E=target/release/examples
 mkdir -p "$OUT"
 [ -d "$OUT/data" ] || $E/sphere_dataset "$OUT/data" 40 128 2000
 T="/usr/bin/time -f %e_s,%M_KiB"
-$T -o "$OUT/tri.time" $B train triangles "$OUT/data" -o "$OUT/tri" --iterations "$TI" --max-shapes 30000 \
+$T -o "$OUT/tri.time" "$B" train triangles "$OUT/data" -o "$OUT/tri" --iterations "$TI" --max-shapes 30000 \
     --eval-every 500 -q
-$B tsdf-fuse "$OUT/tri/point_cloud/iteration_$TI/point_cloud_state_dict.pt" --cameras "$OUT/tri/cameras.json" \
+"$B" tsdf-fuse "$OUT/tri/point_cloud/iteration_$TI/point_cloud_state_dict.pt" --cameras "$OUT/tri/cameras.json" \
     -q -o "$OUT/tri_mesh.ply"
 for mode in none density; do
     reg=(); [ "$mode" = none ] || reg=(--regularize "$mode")
-    $T -o "$OUT/gs_$mode.time" $B train gaussians "$OUT/data" -o "$OUT/gs_$mode" --iterations "$GI" \
+    $T -o "$OUT/gs_$mode.time" "$B" train gaussians "$OUT/data" -o "$OUT/gs_$mode" --iterations "$GI" \
         "${reg[@]}" --eval-every 500 -q
-    $B splat2points "$OUT/gs_$mode" --all-views -q -o - | $B poisson - --depth 8 -q -o "$OUT/gs_${mode}_mesh.ply"
+    "$B" splat2points "$OUT/gs_$mode" --all-views -q -o - | "$B" poisson - --depth 8 -q -o "$OUT/gs_${mode}_mesh.ply"
 done
 {
     for r in tri gs_none gs_density; do
