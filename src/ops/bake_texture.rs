@@ -28,7 +28,7 @@ Examples:
   bake-texture sugarfine.ply point_cloud.ply --cameras cameras.json \\
       -o textured.obj
   bake-texture mesh.obj refined.ply --cameras sparse/0 \\
-      -o out/textured.obj --square-size 10
+      -o textured.obj --square-size 10
   bake-texture mesh.ply gaussians.ply --cameras transforms.json \\
       -o t.obj --json=bake.json
   # look at it

@@ -155,10 +155,12 @@ pub struct ChamferArgs {
     /// Use mesh vertices instead of samples (same as --sample vertices).
     #[arg(long)]
     pub vertices: bool,
-    /// F-score thresholds, comma-separated (generic; TnT overrides the scene's τ).
+    /// F-score thresholds, comma-separated, in the data's unit. Generic: none
+    /// by default (no F-score); TnT: overrides the scene's τ.
     #[arg(long, value_delimiter = ',', value_parser = positive_f64)]
     pub tau: Vec<f64>,
-    /// Discard distances ≥ this before statistics (generic), > 0.
+    /// Discard distances ≥ this before statistics (generic), > 0, in the
+    /// data's unit. Off by default: every distance counts.
     #[arg(long, value_parser = positive_f64)]
     pub max_dist: Option<f64>,
     /// Seed of every random step (sampling, DTU shuffle, TnT RANSAC).

@@ -73,11 +73,12 @@ pub struct PoissonArgs {
     #[arg(long)]
     pub sugar: bool,
     /// Remove vertices whose density is below this quantile of all densities,
-    /// with their faces (SuGaR uses 0.1).
+    /// with their faces. Off by default; --sugar sets 0.1 (SuGaR's).
     #[arg(long, value_name = "Q", value_parser = fraction_f64)]
     pub trim_quantile: Option<f64>,
     /// Keep only the surface where density ≥ DENSITY, clipping faces along the
-    /// iso-line (PoissonRecon's SurfaceTrimmer --trim; typical 5–7).
+    /// iso-line (PoissonRecon's SurfaceTrimmer --trim; typical 5–7). Off by
+    /// default.
     #[arg(long, value_name = "DENSITY", value_parser = nonneg_f64)]
     pub trim: Option<f64>,
     /// Split foreground / background by these cameras (any camera format or a
@@ -104,10 +105,12 @@ pub struct PoissonArgs {
     /// Choose the depth per part from point spacing (Frosting's rule, at most 10).
     #[arg(long, conflicts_with = "width")]
     pub auto_depth: bool,
-    /// Statistical outlier removal before reconstruction: neighbours (0 = off).
+    /// Statistical outlier removal before reconstruction: neighbours K. Off
+    /// by default (and with 0); --sugar sets 20.
     #[arg(long, value_name = "K")]
     pub outlier_k: Option<usize>,
-    /// Statistical outlier removal: standard-deviation ratio.
+    /// Statistical outlier removal: standard-deviation ratio R, used only
+    /// when the removal is on (--outlier-k or --sugar) [default: 20].
     #[arg(long, value_name = "R", value_parser = positive_f64)]
     pub outlier_std: Option<f64>,
     /// Write the mesh even when no face is left (trimming removed them all,

@@ -26,13 +26,15 @@ pub struct PruneTrianglesArgs {
     /// Output format, overriding the extension.
     #[arg(long, value_parser = ["ply", "pt"])]
     pub format: Option<String>,
-    /// Remove triangles with activated opacity ≤ T (0–1).
+    /// Remove triangles with activated opacity ≤ T (0–1). Off by default;
+    /// --game-engine sets 0.7.
     #[arg(long, value_name = "T", value_parser = unit_f32)]
     pub min_opacity: Option<f32>,
-    /// Remove triangles with activated sigma ≥ S (σ = 0.01 + exp(raw)).
+    /// Remove triangles with activated sigma ≥ S (σ = 0.01 + exp(raw)). Off
+    /// by default; --game-engine sets 1.
     #[arg(long, value_name = "S", value_parser = positive_f32)]
     pub max_sigma: Option<f32>,
-    /// Keep at most N triangles, the most opaque.
+    /// Keep at most N triangles, the most opaque. Off by default (no cap).
     #[arg(long, value_name = "N")]
     pub max_count: Option<usize>,
     /// Write the output even when no triangle is kept (an empty soup),

@@ -83,7 +83,9 @@ pub struct RefineArgs {
     /// divided size are both accepted).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64), conflicts_with = "resolution")]
     pub downscale: u32,
-    /// Train at this image width (must divide the cameras' width).
+    /// Train at this image width: the cameras' resolution divided by
+    /// (camera width / WIDTH), so WIDTH must divide the width of the first
+    /// camera in name order (else exit 2). Instead of --downscale.
     #[arg(long, value_name = "WIDTH", value_parser = clap::value_parser!(u32).range(1..))]
     pub resolution: Option<u32>,
     /// White background instead of black.

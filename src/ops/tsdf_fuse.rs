@@ -93,13 +93,15 @@ pub struct TsdfFuseArgs {
     #[arg(long)]
     pub dtu: bool,
     /// Keep the K largest connected components (2DGS `--num_cluster`; ties
-    /// are kept, components under --min-cluster-faces go).
+    /// are kept, components under --min-cluster-faces go). Off by default
+    /// (every component kept); --dtu sets 1.
     #[arg(long, value_name = "K", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     pub keep_clusters: Option<usize>,
     /// With --keep-clusters: components with fewer faces always go.
     #[arg(long, default_value_t = 50)]
     pub min_cluster_faces: usize,
-    /// No vertex colours.
+    /// No vertex colours (by default the mesh has the rendered colours, or
+    /// --color's).
     #[arg(long)]
     pub no_color: bool,
     /// 2DGS's unbounded variant (`--unbounded`, `fuse_unbounded.ply`): the
@@ -117,7 +119,8 @@ pub struct TsdfFuseArgs {
     /// size. Masks of N times the render size are box-averaged to it.
     #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::builder::RangedU64ValueParser::<u32>::new().range(1..=64))]
     pub downscale: u32,
-    /// Near plane of the renders (camera z).
+    /// Near plane of the renders (camera z, scene units): splats and faces
+    /// nearer to the camera are not drawn. Unused with --depth.
     #[arg(long, default_value_t = 0.2, value_parser = crate::cli::nonneg_f64)]
     pub near: f64,
     #[command(flatten)]

@@ -3,6 +3,8 @@
 //! message and the absence of panic text.
 #![allow(dead_code)]
 
+pub mod examples;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Output;
