@@ -193,7 +193,10 @@ const NEEDS_OUTSIDE_DATA: [(&str, &str); 10] = [
     ),
     ("train ", "training runs of thousands of iterations"),
     ("refine ", "refinement runs of thousands of iterations"),
-    ("splat2points run/", "the output folder of a training run (the train examples are not run)"),
+    (
+        "splat2points run/",
+        "the output folder of a training run (the train examples are not run)",
+    ),
 ];
 
 /// Every `--help` example runs on the example kit (tests/common/examples.rs)
