@@ -118,23 +118,8 @@ fn every_block_is_tagged() {
 /// The command lines of a `sh` block: continuations joined, comments and
 /// blank lines dropped.
 fn sh_commands(b: &Block) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
-    for line in &b.body {
-        let code = line.split(" #").next().unwrap_or("").trim();
-        if code.starts_with('#') || code.is_empty() {
-            continue;
-        }
-        if let Some(head) = code.strip_suffix('\\') {
-            cur.push_str(head);
-            cur.push(' ');
-        } else {
-            cur.push_str(code);
-            out.push(std::mem::take(&mut cur));
-        }
-    }
-    assert!(cur.is_empty(), "{}: ends with a continuation", at(b));
-    out
+    common::examples::join_commands(b.body.iter().map(String::as_str))
+        .unwrap_or_else(|cur| panic!("{}: ends with a continuation: {cur}", at(b)))
 }
 
 /// Programs a `sh` block may run besides splatkit's commands (not parsed).

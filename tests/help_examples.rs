@@ -92,35 +92,19 @@ fn after_help_is_printed_verbatim_at_80_and_100_columns() {
 /// `Examples:` block with `\` continuations joined, comments (`# …`)
 /// dropped.
 fn example_commands(text: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
+    let mut block = Vec::new();
     let mut inside = false;
     for line in text.lines() {
         if line.starts_with("Examples:") {
             inside = true;
-            continue;
-        }
-        if !inside {
-            continue;
-        }
-        if line.trim().is_empty() || !line.starts_with("  ") {
+        } else if inside && (line.trim().is_empty() || !line.starts_with("  ")) {
             inside = false;
-            continue;
-        }
-        let code = line.split(" #").next().unwrap_or("").trim();
-        if code.starts_with('#') || code.is_empty() {
-            continue;
-        }
-        if let Some(head) = code.strip_suffix('\\') {
-            cur.push_str(head);
-            cur.push(' ');
-        } else {
-            cur.push_str(code);
-            out.push(std::mem::take(&mut cur));
+        } else if inside {
+            block.push(line);
         }
     }
-    assert!(cur.is_empty(), "an example ends with a continuation: {cur}");
-    out
+    common::examples::join_commands(block)
+        .unwrap_or_else(|cur| panic!("an example ends with a continuation: {cur}"))
 }
 
 /// Every example in every `--help` parses: each command of a pipeline or

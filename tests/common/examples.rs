@@ -103,3 +103,25 @@ pub fn make_kit(dir: &Path) {
         assert_eq!(code, 0, "example kit: {s}\n{out}");
     }
 }
+
+/// Shell lines to commands: a trailing `\` joins a line with the next, and
+/// `# …` comments (whole lines, or after ` #`) and blank lines are dropped.
+/// An error holding the unfinished command when the last line continues.
+pub fn join_commands<'a>(lines: impl IntoIterator<Item = &'a str>) -> Result<Vec<String>, String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    for line in lines {
+        let code = line.split(" #").next().unwrap_or("").trim();
+        if code.starts_with('#') || code.is_empty() {
+            continue;
+        }
+        if let Some(head) = code.strip_suffix('\\') {
+            cur.push_str(head);
+            cur.push(' ');
+        } else {
+            cur.push_str(code);
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    if cur.is_empty() { Ok(out) } else { Err(cur) }
+}
