@@ -8,12 +8,13 @@
 //! Modes (first argument after `--`):
 //! - `depths` (default): 1M points at depths 8, 9, 10, 11, then the SuGaR
 //!   tail at depth 10 (trim 10 %, decimate to 1M faces, clean);
-//! - `scaling`: depth 10 at 250k, 500k, 1M points.
+//! - `scaling`: depth 10 at 250k, 500k, 1M points;
+//! - `tail`: the SuGaR tail only.
 //!
 //! Each line reports wall time, the process's peak RSS so far (runs go from
 //! small to large, so it is the current run's peak) and the output size.
 //! Threads: rayon's default (all cores); `RAYON_NUM_THREADS=1` for one.
-//! Run: `cargo bench --bench poisson [-- scaling]`.
+//! Run: `cargo bench --bench poisson [-- scaling|tail]`.
 
 mod common;
 use common::peak_mb;
@@ -126,8 +127,10 @@ fn main() {
         }
         _ => {
             let pc = scene(1_000_000, 1);
-            for d in [8, 9, 10, 11] {
-                run("1M points", &pc, d, None);
+            if mode != "tail" {
+                for d in [8, 9, 10, 11] {
+                    run("1M points", &pc, d, None);
+                }
             }
             let mesh = run("1M points, trim 0.1", &pc, 10, Some(0.1));
             let t = Instant::now();

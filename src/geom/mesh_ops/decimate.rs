@@ -1,18 +1,33 @@
-//! Quadric-error decimation to an explicit face or vertex count, through
-//! meshoptimizer's `simplifyWithUpdate` (the `meshopt` crate): edge
-//! collapses ordered by quadric error (Garland–Heckbert), topology kept
-//! (no collapse that would make the mesh non-manifold), and — unlike plain
-//! `meshopt::simplify` — the surviving vertices are moved to the
-//! error-minimising positions, as Open3D's `simplify_quadric_decimation`
-//! does. The error bound is left open (relative error 1.0), so the target
-//! count is what stops it; it can stop short when no valid collapse is left
-//! (topology), which the result reports.
+//! Quadric-error decimation to an explicit face or vertex count that keeps
+//! the topology of the mesh, with the engine in
+//! [`crate::geom::mesh_ops::edge_collapse`] (Garland–Heckbert edge
+//! collapses, area-weighted plane quadrics as Open3D's
+//! `simplify_quadric_decimation`, survivors at the error-minimising point,
+//! every collapse checked against the link condition).
+//!
+//! On a mesh in which `clean` finds nothing, the output has nothing for it
+//! to find (no two vertices on one point, no degenerate, duplicate or
+//! non-manifold face) and every piece keeps its Euler characteristic
+//! `V − E + F`. The price: a target can be missed from above where no
+//! collapse keeps the topology (a closed piece stops at a tetrahedron, a
+//! torus at a few dozen faces, thin parts at their handles).
+//!
+//! Vertices at bit-identical positions are welded first, as `clean`
+//! merges them (faces refer to the first of them). Defects already in the
+//! input are left as they are (their vertices do not move).
 //!
 //! Attributes: surviving vertices keep their colours and scalars (their
 //! identity is kept; only positions move); normals, when present, are
-//! recomputed from the faces (area-weighted).
+//! recomputed from the faces (area-weighted). Per-face colours, extra face
+//! properties and per-corner texture coordinates (with the texture) are
+//! dropped: collapsed faces have no single source.
 
-use crate::geom::mesh_ops::clean::{remove_unreferenced_vertices, vertex_normals};
+use std::borrow::Cow;
+
+use crate::geom::mesh_ops::clean::{
+    merge_duplicate_vertices, remove_unreferenced_vertices, vertex_normals,
+};
+use crate::geom::mesh_ops::edge_collapse::{Stop, collapse_edges};
 use crate::model::Mesh;
 use crate::{Error, Result};
 
@@ -34,40 +49,20 @@ pub struct DecimateReport {
     pub vertices_before: usize,
     pub faces_after: usize,
     pub vertices_after: usize,
-    /// Relative error meshoptimizer reports (fraction of the mesh extent).
+    /// Largest error of a collapse made, as a distance (square root of the
+    /// quadric error over its weight) relative to the longest side of the
+    /// bounding box.
     pub relative_error: f32,
+    /// Vertices that never moved because the input is not a clean manifold
+    /// there (0 on `clean`'s output).
+    pub locked_vertices: usize,
 }
 
-fn simplify_to(mesh: &Mesh, faces: usize) -> (Mesh, f32) {
-    let mut idx: Vec<u32> = mesh.faces.iter().flatten().copied().collect();
-    let mut pos = mesh.vertices.clone();
-    let mut err = 0.0f32;
-    let n = meshopt::simplify_with_update(
-        &mut idx,
-        &mut pos,
-        &mut [],
-        &[],
-        0,
-        None,
-        faces * 3,
-        1.0,
-        meshopt::SimplifyOptions::None,
-        Some(&mut err),
-    );
-    let mut out = mesh.clone();
-    out.vertices = pos;
-    out.faces = idx[..n]
-        .chunks_exact(3)
-        .map(|c| [c[0], c[1], c[2]])
-        .collect();
-    // Per-face attributes cannot follow collapsed faces.
-    out.face_colors = None;
-    out.extras.item.clear();
-    remove_unreferenced_vertices(&mut out);
-    if out.normals.is_some() {
-        out.normals = Some(vertex_normals(&out));
-    }
-    (out, err)
+/// Whether two vertices (used or not) sit on one point.
+fn has_shared_points(v: &[[f32; 3]]) -> bool {
+    let mut seen = rustc_hash::FxHashSet::default();
+    v.iter()
+        .any(|p| !seen.insert(p.map(|c| if c == 0.0 { 0 } else { c.to_bits() })))
 }
 
 /// Decimates `mesh` to `target`. A target at or above the current size
@@ -80,43 +75,65 @@ pub fn decimate(mesh: &Mesh, target: Target) -> Result<(Mesh, DecimateReport)> {
         vertices_before: nv,
         ..Default::default()
     };
-    let faces = match target {
-        Target::Faces(f) => f,
-        Target::Ratio(r) if (0.0..=1.0).contains(&r) => (r * nf as f64).round() as usize,
+    let stop = match target {
+        Target::Faces(f) => Stop::Faces(f),
+        Target::Ratio(r) if (0.0..=1.0).contains(&r) => {
+            Stop::Faces((r * nf as f64).round() as usize)
+        }
         Target::Ratio(r) => {
             return Err(Error::invalid(format!("ratio must be in [0, 1] (got {r})")));
         }
-        Target::Vertices(v) => {
-            if v >= nv {
-                nf
-            } else {
-                // A closed mesh has about two faces per vertex; shrink the face
-                // target until the vertex count fits.
-                let mut f = (2 * v).min(nf);
-                loop {
-                    let (m, e) = simplify_to(mesh, f);
-                    if m.vertices.len() <= v || f == 0 {
-                        report.faces_after = m.faces.len();
-                        report.vertices_after = m.vertices.len();
-                        report.relative_error = e;
-                        return Ok((m, report));
-                    }
-                    let over = m.vertices.len() as f64 / v as f64;
-                    f = ((f as f64 / over).floor() as usize).min(f - 1);
-                }
-            }
-        }
+        Target::Vertices(v) => Stop::Vertices(v),
     };
-    if faces >= nf {
+    let unchanged = match stop {
+        Stop::Faces(f) => f >= nf,
+        Stop::Vertices(v) => v >= nv,
+    };
+    if unchanged {
         report.faces_after = nf;
         report.vertices_after = nv;
         return Ok((mesh.clone(), report));
     }
-    let (m, e) = simplify_to(mesh, faces);
-    report.faces_after = m.faces.len();
-    report.vertices_after = m.vertices.len();
-    report.relative_error = e;
-    Ok((m, report))
+    let mut work = Cow::Borrowed(mesh);
+    if has_shared_points(&mesh.vertices) {
+        merge_duplicate_vertices(work.to_mut());
+    }
+    let done = collapse_edges(&work.vertices, &work.faces, stop);
+    let mut out = work.into_owned();
+    out.vertices = done.positions;
+    out.faces = done.faces;
+    // Per-face attributes cannot follow collapsed faces.
+    out.face_colors = None;
+    out.uvs = None;
+    out.texture = None;
+    out.extras.item.clear();
+    remove_unreferenced_vertices(&mut out);
+    if out.normals.is_some() {
+        out.normals = Some(vertex_normals(&out));
+    }
+    let extent = bbox_extent(mesh);
+    report.faces_after = out.faces.len();
+    report.vertices_after = out.vertices.len();
+    report.relative_error = if extent > 0.0 {
+        (done.max_error / extent) as f32
+    } else {
+        0.0
+    };
+    report.locked_vertices = done.locked;
+    Ok((out, report))
+}
+
+/// Longest side of the bounding box of the vertices.
+fn bbox_extent(m: &Mesh) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in &m.vertices {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k] as f64);
+            hi[k] = hi[k].max(p[k] as f64);
+        }
+    }
+    (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max)
 }
 
 #[cfg(test)]
