@@ -164,17 +164,9 @@ fn binaries_print_examples_verbatim_at_80_columns() {
 /// Examples that need data the example kit cannot stand in for, by a
 /// substring of the example, with the reason; each must still match an
 /// example (so the list cannot go stale).
-const NEEDS_OUTSIDE_DATA: [(&str, &str); 10] = [
-    ("sparse/0", "a COLMAP model (the kit has no COLMAP writer)"),
+const NEEDS_OUTSIDE_DATA: [(&str, &str); 5] = [
     ("DTU_OFFICIAL", "the official DTU evaluation data"),
     ("TNT_GT", "the Tanks-and-Temples ground truth"),
-    ("2dgs", "a 2DGS model (surfels)"),
-    ("scan24/", "a DTU scan folder with cameras.npz and masks"),
-    ("cameras.npz", "DTU cameras.npz"),
-    (
-        "sugarfine.ply point_cloud.ply",
-        "a SuGaR refined mesh with its bound Gaussians",
-    ),
     ("train ", "training runs of thousands of iterations"),
     ("refine ", "refinement runs of thousands of iterations"),
     (
@@ -182,6 +174,79 @@ const NEEDS_OUTSIDE_DATA: [(&str, &str); 10] = [
         "the output folder of a training run (the train examples are not run)",
     ),
 ];
+
+/// Stand-ins the shell setup cannot make, written with the library into
+/// `kit`: a COLMAP model of the kit's cameras (`sparse/0`, and a 3DGS
+/// scene folder `garden/` with it and the photos), NeuS/DTU
+/// `cameras.npz` of the same cameras (`world_mat_i` = K·[R|t],
+/// `scale_mat_i` = identity) with all-white masks (the kit root, `scan24/`),
+/// and a 2DGS model (surfels on a sphere inside the kit's views) as
+/// `2dgs_model.ply` and as 2DGS output folders `2dgs_output/`, `2dgs/`.
+fn outside_data_stand_ins(kit: &std::path::Path, cams: &[splatkit::model::Camera]) {
+    use std::io::Write;
+    let model = splatkit::io::cameras::colmap::ColmapModel::from_cameras(cams).unwrap();
+    for d in ["sparse/0", "garden/sparse/0"] {
+        std::fs::create_dir_all(kit.join(d)).unwrap();
+        model.write_binary(&kit.join(d)).unwrap();
+    }
+    // NeuS cameras: rows of the 4×4 K·[R|t].
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let opts =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    for (i, c) in cams.iter().enumerate() {
+        let k = glam::DMat3::from_cols(
+            glam::DVec3::new(c.fx, 0.0, 0.0),
+            glam::DVec3::new(0.0, c.fy, 0.0),
+            glam::DVec3::new(c.cx, c.cy, 1.0),
+        );
+        let mut p = glam::DMat4::from_mat3(k * c.rotation);
+        p.w_axis = (k * c.translation).extend(1.0);
+        let rows: Vec<f64> = (0..4)
+            .flat_map(|r| (0..4).map(move |col| p.col(col)[r]))
+            .collect();
+        let id: Vec<f64> = (0..16)
+            .map(|j| if j % 5 == 0 { 1.0 } else { 0.0 })
+            .collect();
+        for (name, m) in [("world_mat", &rows), ("scale_mat", &id)] {
+            zip.start_file(format!("{name}_{i}.npy"), opts).unwrap();
+            zip.write_all(&splatkit::io::cameras::npz::encode_npy_f64(&[4, 4], m))
+                .unwrap();
+        }
+    }
+    let npz = zip.finish().unwrap().into_inner();
+    for d in [".", "scan24"] {
+        let dir = kit.join(d);
+        std::fs::create_dir_all(dir.join("mask")).unwrap();
+        std::fs::write(dir.join("cameras.npz"), &npz).unwrap();
+        for (i, c) in cams.iter().enumerate() {
+            let file = std::fs::File::create(dir.join(format!("mask/{i:03}.png"))).unwrap();
+            let mut enc = png::Encoder::new(std::io::BufWriter::new(file), c.width, c.height);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            let white = vec![255u8; (c.width * c.height * 3) as usize];
+            enc.write_header()
+                .unwrap()
+                .write_image_data(&white)
+                .unwrap();
+        }
+    }
+    // 2DGS surfels on a sphere of radius 0.8 around the kit's scene centre.
+    let surfels = splatkit::testing::surfel_sphere(4000, 0.8, 0.02, 7);
+    let mut b = Vec::new();
+    splatkit::io::ply::surfels::write_surfels(
+        &mut b,
+        &surfels,
+        splatkit::io::ply::Format::BinaryLittleEndian,
+    )
+    .unwrap();
+    std::fs::write(kit.join("2dgs_model.ply"), &b).unwrap();
+    for d in ["2dgs_output", "2dgs"] {
+        let it = kit.join(d).join("point_cloud/iteration_30000");
+        std::fs::create_dir_all(&it).unwrap();
+        std::fs::write(it.join("point_cloud.ply"), &b).unwrap();
+        std::fs::copy(kit.join("cameras.json"), kit.join(d).join("cameras.json")).unwrap();
+    }
+}
 
 /// Every `--help` example runs on the example kit (tests/common/examples.rs)
 /// with stand-ins for the file names the examples use (`output/garden/` a
@@ -215,11 +280,15 @@ fn help_examples_run_on_the_example_kit() {
         && export-off mesh.ply --format obj -o mesh.obj -q \
         && cp mesh.obj scan.obj && cp mesh.obj edited_mesh.obj \
         && decimate mesh.ply --faces 2000 -o coarse.ply -q \
-        && bind-gaussians coarse.ply --colors-from scene.ply -o refined.ply -q \
-        && bake-texture coarse.ply refined.ply --cameras cameras.json -o textured.obj -q \
+        && bind-gaussians mesh.ply --colors-from scene.ply -o refined.ply -q \
+        && bake-texture mesh.ply refined.ply --cameras cameras.json -o textured.obj -q \
+        && decimate mesh.ply --faces 9260 -o sugarfine.ply -q \
+        && mkdir -p garden && cp -r images garden/images \
+        && render scene.ply --cameras cameras.json -o renders --outputs rgb,depth -q \
         && ln -s bound.ply gaussians.ply";
     let (code, out) = sh(&kit, setup);
     assert_eq!(code, 0, "kit stand-ins: {out}");
+    outside_data_stand_ins(&kit, &cams);
     let mut used = [false; NEEDS_OUTSIDE_DATA.len()];
     let (mut ran, mut skipped) = (0, 0);
     for (n, (path, text)) in after_helps().into_iter().enumerate() {
