@@ -39,6 +39,34 @@ pub fn shared_data(rel: &str) -> Option<PathBuf> {
     None
 }
 
+/// A torus in the xy plane about the origin: `nu` steps around the ring
+/// (radius `big`) × `nv` around the tube (radius `small`), two faces per
+/// quad, closed, genus 1.
+pub fn torus_mesh(nu: usize, nv: usize, big: f64, small: f64) -> Mesh {
+    let mut v = Vec::new();
+    for i in 0..nu {
+        let u = std::f64::consts::TAU * i as f64 / nu as f64;
+        for j in 0..nv {
+            let w = std::f64::consts::TAU * j as f64 / nv as f64;
+            let r = big + small * w.cos();
+            v.push([
+                (r * u.cos()) as f32,
+                (r * u.sin()) as f32,
+                (small * w.sin()) as f32,
+            ]);
+        }
+    }
+    let id = |i: usize, j: usize| ((i % nu) * nv + j % nv) as u32;
+    let mut f = Vec::new();
+    for i in 0..nu {
+        for j in 0..nv {
+            f.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            f.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    Mesh::new(v, f)
+}
+
 /// A UV sphere of radius `r` about the origin with `n` rings (n ≥ 2) and
 /// 2n segments: closed, welded poles on ±z, faces counter-clockwise seen
 /// from outside.

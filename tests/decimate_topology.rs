@@ -21,7 +21,7 @@ use splatkit::geom::meshing::poisson::PoissonParams;
 use splatkit::geom::meshing::poisson::pipeline::{PipelineOptions, run_pipeline};
 use splatkit::io::any::{load_mesh, load_points};
 use splatkit::model::Mesh;
-use splatkit::testing::{shared_data, uv_sphere};
+use splatkit::testing::{shared_data, torus_mesh, uv_sphere};
 
 /// What `clean`'s checks find in `m`, in its order: vertices merged (on
 /// one point), degenerate faces, duplicate faces, non-manifold faces.
@@ -95,33 +95,6 @@ fn keeps_topology(name: &str, mesh: &Mesh, targets: &[usize]) {
     }
 }
 
-/// A torus of `nu` × `nv` quads (two faces each), ring radius `big`, tube
-/// radius `small`.
-fn torus(nu: usize, nv: usize, big: f64, small: f64) -> Mesh {
-    let mut v = Vec::new();
-    for i in 0..nu {
-        let u = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
-        for j in 0..nv {
-            let w = 2.0 * std::f64::consts::PI * j as f64 / nv as f64;
-            let r = big + small * w.cos();
-            v.push([
-                (r * u.cos()) as f32,
-                (r * u.sin()) as f32,
-                (small * w.sin()) as f32,
-            ]);
-        }
-    }
-    let id = |i: usize, j: usize| ((i % nu) * nv + j % nv) as u32;
-    let mut f = Vec::new();
-    for i in 0..nu {
-        for j in 0..nv {
-            f.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            f.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    Mesh::new(v, f)
-}
-
 /// Generated meshes, no shared data: a UV sphere of 200k faces (high-valence
 /// poles; meshoptimizer left 5 duplicate faces at 20k) and a thin torus
 /// (tube radius 1/50 of the ring; meshoptimizer pinched the tube at 100
@@ -129,7 +102,11 @@ fn torus(nu: usize, nv: usize, big: f64, small: f64) -> Mesh {
 #[test]
 fn generated_meshes_keep_topology() {
     keeps_topology("uv sphere", &uv_sphere(224, 1.0), &[20_000, 2_000, 400]);
-    keeps_topology("thin torus", &torus(400, 12, 1.0, 0.02), &[2_000, 400, 100]);
+    keeps_topology(
+        "thin torus",
+        &torus_mesh(400, 12, 1.0, 0.02),
+        &[2_000, 400, 100],
+    );
 }
 
 /// Real scans: the Stanford bunny as `clean` leaves it (holes: border

@@ -16,12 +16,14 @@
 //!   for image columns ≤ 830: with the 24 px dilation, grid columns x ≤ 15
 //!   stay and x ≥ 16 are culled.
 
-use std::io::{Cursor, Write};
+mod common;
+
+use std::io::Write;
 use std::path::Path;
 
 use assert_cmd::Command;
+use common::dtu::{write_neus_npz, write_rgb_png};
 use glam::{DMat3, DMat4, DVec3};
-use splatkit::io::cameras::npz::encode_npy_f64;
 use splatkit::io::dtu::{ObsMask, write_obs_mask, write_plane};
 use splatkit::io::ply::{Format, mesh::write_mesh, points::write_points};
 use splatkit::model::{Mesh, PointCloud};
@@ -96,31 +98,15 @@ fn build_scene(dir: &Path) {
     let scale = DMat4::from_cols_array(&[
         S, 0.0, 0.0, 0.0, 0.0, S, 0.0, 0.0, 0.0, 0.0, S, 0.0, C[0], C[1], C[2], 1.0,
     ]);
-    let rows = |m: DMat4| -> Vec<f64> {
-        (0..4)
-            .flat_map(|i| (0..4).map(move |j| m.col(j)[i]))
-            .collect()
-    };
-    let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
-    let opts =
-        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
-    for (name, m) in [("world_mat_0.npy", rt), ("scale_mat_0.npy", scale)] {
-        zip.start_file(name, opts).unwrap();
-        zip.write_all(&encode_npy_f64(&[4, 4], &rows(m))).unwrap();
-    }
     std::fs::create_dir_all(dir.join("mask")).unwrap();
-    std::fs::write(dir.join("cameras.npz"), zip.finish().unwrap().into_inner()).unwrap();
+    write_neus_npz(&dir.join("cameras.npz"), &[(rt, scale)]);
     // 1600 × 1200 RGB mask: white for columns ≤ 830.
     let (w, h) = (1600u32, 1200u32);
     let mut img = vec![0u8; (w * h * 3) as usize];
     for row in img.chunks_exact_mut((w * 3) as usize) {
         row[..831 * 3].fill(255);
     }
-    let file = std::fs::File::create(dir.join("mask/000.png")).unwrap();
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header().unwrap().write_image_data(&img).unwrap();
+    write_rgb_png(&dir.join("mask/000.png"), w, h, &img);
 }
 
 fn run(args: &[&str], root: &Path, pred: &Path, extra: &[&Path]) -> serde_json::Value {

@@ -183,51 +183,37 @@ const NEEDS_OUTSIDE_DATA: [(&str, &str); 5] = [
 /// and a 2DGS model (surfels on a sphere inside the kit's views) as
 /// `2dgs_model.ply` and as 2DGS output folders `2dgs_output/`, `2dgs/`.
 fn outside_data_stand_ins(kit: &std::path::Path, cams: &[splatkit::model::Camera]) {
-    use std::io::Write;
     let model = splatkit::io::cameras::colmap::ColmapModel::from_cameras(cams).unwrap();
     for d in ["sparse/0", "garden/sparse/0"] {
         std::fs::create_dir_all(kit.join(d)).unwrap();
         model.write_binary(&kit.join(d)).unwrap();
     }
-    // NeuS cameras: rows of the 4×4 K·[R|t].
-    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let opts =
-        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
-    for (i, c) in cams.iter().enumerate() {
-        let k = glam::DMat3::from_cols(
-            glam::DVec3::new(c.fx, 0.0, 0.0),
-            glam::DVec3::new(0.0, c.fy, 0.0),
-            glam::DVec3::new(c.cx, c.cy, 1.0),
-        );
-        let mut p = glam::DMat4::from_mat3(k * c.rotation);
-        p.w_axis = (k * c.translation).extend(1.0);
-        let rows: Vec<f64> = (0..4)
-            .flat_map(|r| (0..4).map(move |col| p.col(col)[r]))
-            .collect();
-        let id: Vec<f64> = (0..16)
-            .map(|j| if j % 5 == 0 { 1.0 } else { 0.0 })
-            .collect();
-        for (name, m) in [("world_mat", &rows), ("scale_mat", &id)] {
-            zip.start_file(format!("{name}_{i}.npy"), opts).unwrap();
-            zip.write_all(&splatkit::io::cameras::npz::encode_npy_f64(&[4, 4], m))
-                .unwrap();
-        }
-    }
-    let npz = zip.finish().unwrap().into_inner();
+    // NeuS cameras: world_mat = the 4×4 K·[R|t], scale_mat = identity.
+    let mats: Vec<(glam::DMat4, glam::DMat4)> = cams
+        .iter()
+        .map(|c| {
+            let k = glam::DMat3::from_cols(
+                glam::DVec3::new(c.fx, 0.0, 0.0),
+                glam::DVec3::new(0.0, c.fy, 0.0),
+                glam::DVec3::new(c.cx, c.cy, 1.0),
+            );
+            let mut p = glam::DMat4::from_mat3(k * c.rotation);
+            p.w_axis = (k * c.translation).extend(1.0);
+            (p, glam::DMat4::IDENTITY)
+        })
+        .collect();
     for d in [".", "scan24"] {
         let dir = kit.join(d);
         std::fs::create_dir_all(dir.join("mask")).unwrap();
-        std::fs::write(dir.join("cameras.npz"), &npz).unwrap();
+        common::dtu::write_neus_npz(&dir.join("cameras.npz"), &mats);
         for (i, c) in cams.iter().enumerate() {
-            let file = std::fs::File::create(dir.join(format!("mask/{i:03}.png"))).unwrap();
-            let mut enc = png::Encoder::new(std::io::BufWriter::new(file), c.width, c.height);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
             let white = vec![255u8; (c.width * c.height * 3) as usize];
-            enc.write_header()
-                .unwrap()
-                .write_image_data(&white)
-                .unwrap();
+            common::dtu::write_rgb_png(
+                &dir.join(format!("mask/{i:03}.png")),
+                c.width,
+                c.height,
+                &white,
+            );
         }
     }
     // 2DGS surfels on a sphere of radius 0.8 around the kit's scene centre.

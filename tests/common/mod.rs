@@ -3,6 +3,7 @@
 //! message and the absence of panic text.
 #![allow(dead_code)]
 
+pub mod dtu;
 pub mod examples;
 
 use std::collections::BTreeMap;

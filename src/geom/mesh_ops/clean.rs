@@ -72,6 +72,17 @@ pub fn remove_unreferenced_vertices(mesh: &mut Mesh) -> usize {
     n - idx.len()
 }
 
+/// The key two positions share exactly when they are the same point:
+/// their bits, with `-0.0` taken as `+0.0`.
+pub fn position_key(p: &[f32; 3]) -> [u32; 3] {
+    p.map(|c| if c == 0.0 { 0 } else { c.to_bits() })
+}
+
+/// Whether face `f` names one vertex twice (Open3D's degenerate triangle).
+pub fn repeats_index(f: &[u32; 3]) -> bool {
+    f[0] == f[1] || f[1] == f[2] || f[0] == f[2]
+}
+
 /// Merges vertices with bit-identical positions into the first of them
 /// (Open3D `remove_duplicated_vertices`); faces are re-pointed, the merged
 /// copies' attributes are dropped. Returns how many vertices went.
@@ -80,8 +91,7 @@ pub fn merge_duplicate_vertices(mesh: &mut Mesh) -> usize {
     let mut map = Vec::with_capacity(mesh.vertices.len());
     let mut any = false;
     for (i, p) in mesh.vertices.iter().enumerate() {
-        // +0.0 and -0.0 are the same position
-        let key = p.map(|c| if c == 0.0 { 0 } else { c.to_bits() });
+        let key = position_key(p);
         let j = *first.entry(key).or_insert(i as u32);
         any |= j != i as u32;
         map.push(j);
@@ -146,7 +156,7 @@ pub fn remove_degenerate_faces(mesh: &mut Mesh) -> usize {
     let keep: Vec<bool> = mesh
         .faces
         .iter()
-        .map(|f| f[0] != f[1] && f[1] != f[2] && f[0] != f[2] && area2(mesh, f) > 0.0)
+        .map(|f| !repeats_index(f) && area2(mesh, f) > 0.0)
         .collect();
     let n = keep.iter().filter(|k| !**k).count();
     if n > 0 {

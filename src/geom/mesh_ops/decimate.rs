@@ -25,7 +25,7 @@
 use std::borrow::Cow;
 
 use crate::geom::mesh_ops::clean::{
-    merge_duplicate_vertices, remove_unreferenced_vertices, vertex_normals,
+    merge_duplicate_vertices, position_key, remove_unreferenced_vertices, vertex_normals,
 };
 use crate::geom::mesh_ops::edge_collapse::{Stop, collapse_edges};
 use crate::model::Mesh;
@@ -61,8 +61,7 @@ pub struct DecimateReport {
 /// Whether two vertices (used or not) sit on one point.
 fn has_shared_points(v: &[[f32; 3]]) -> bool {
     let mut seen = rustc_hash::FxHashSet::default();
-    v.iter()
-        .any(|p| !seen.insert(p.map(|c| if c == 0.0 { 0 } else { c.to_bits() })))
+    v.iter().any(|p| !seen.insert(position_key(p)))
 }
 
 /// Decimates `mesh` to `target`. A target at or above the current size

@@ -54,8 +54,10 @@
 //! mesh the next is checked on); quadrics, costs and ranking are computed
 //! in parallel, with results that do not depend on the thread count.
 
+use glam::DVec3;
 use rayon::prelude::*;
 
+use super::clean::repeats_index;
 use super::manifold_check::{VertexFaces, defect_vertices, vertex_stars};
 
 /// Weight of the border-plane quadrics relative to the face quadrics.
@@ -102,17 +104,17 @@ struct Quadric {
 
 impl Quadric {
     /// `w` × squared distance to the plane `n·p + d = 0` (`n` unit).
-    fn plane(n: [f64; 3], d: f64, w: f64) -> Self {
+    fn plane(n: DVec3, d: f64, w: f64) -> Self {
         Quadric {
             a: [
-                w * n[0] * n[0],
-                w * n[0] * n[1],
-                w * n[0] * n[2],
-                w * n[1] * n[1],
-                w * n[1] * n[2],
-                w * n[2] * n[2],
+                w * n.x * n.x,
+                w * n.x * n.y,
+                w * n.x * n.z,
+                w * n.y * n.y,
+                w * n.y * n.z,
+                w * n.z * n.z,
             ],
-            b: [w * d * n[0], w * d * n[1], w * d * n[2]],
+            b: [w * d * n.x, w * d * n.y, w * d * n.z],
             c: w * d * d,
             w,
         }
@@ -135,9 +137,9 @@ impl Quadric {
         q
     }
 
-    fn eval(&self, p: [f64; 3]) -> f64 {
+    fn eval(&self, p: DVec3) -> f64 {
         let a = &self.a;
-        let [x, y, z] = p;
+        let DVec3 { x, y, z } = p;
         let v = a[0] * x * x
             + 2.0 * a[1] * x * y
             + 2.0 * a[2] * x * z
@@ -150,7 +152,7 @@ impl Quadric {
     }
 
     /// The minimiser of the quadric, where the system is well conditioned.
-    fn minimiser(&self) -> Option<[f64; 3]> {
+    fn minimiser(&self) -> Option<DVec3> {
         let [a00, a01, a02, a11, a12, a22] = self.a;
         let c00 = a11 * a22 - a12 * a12;
         let c01 = a02 * a12 - a01 * a22;
@@ -165,29 +167,28 @@ impl Quadric {
         let c22 = a00 * a11 - a01 * a01;
         let [b0, b1, b2] = self.b;
         // p = -A⁻¹ b, A⁻¹ = cofactors / det (symmetric).
-        let p = [
+        let p = DVec3::new(
             -(c00 * b0 + c01 * b1 + c02 * b2) / det,
             -(c01 * b0 + c11 * b1 + c12 * b2) / det,
             -(c02 * b0 + c12 * b1 + c22 * b2) / det,
-        ];
-        p.iter().all(|c| c.is_finite()).then_some(p)
+        );
+        p.is_finite().then_some(p)
     }
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+/// (b − a) × (c − a) of a triangle's corners: twice its area along its
+/// normal.
+fn face_cross(c: [DVec3; 3]) -> DVec3 {
+    (c[1] - c[0]).cross(c[2] - c[0])
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+/// How many of the faces in `around` (the faces of one end of an edge)
+/// hold the other end `b`.
+fn faces_on_edge(around: &[u32], faces: &[[u32; 3]], b: u32) -> usize {
+    around
+        .iter()
+        .filter(|&&f| faces[f as usize].contains(&b))
+        .count()
 }
 
 /// `x > 0` (false for NaN).
@@ -195,12 +196,8 @@ fn positive(x: f64) -> bool {
     x > 0.0
 }
 
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-
 struct State {
-    pos: Vec<[f64; 3]>,
+    pos: Vec<DVec3>,
     quad: Vec<Quadric>,
     faces: Vec<[u32; 3]>,
     face_alive: Vec<bool>,
@@ -208,7 +205,6 @@ struct State {
     around: Vec<Vec<u32>>,
     border: Vec<bool>,
     locked: Vec<bool>,
-    vertex_alive: Vec<bool>,
     faces_left: usize,
     vertices_left: usize,
     /// Scratch marks for the link test (`stamp` = this test's value).
@@ -219,17 +215,12 @@ struct State {
 
 impl State {
     /// Best point for collapsing `a`–`b` and its cost.
-    fn placement(&self, a: u32, b: u32) -> ([f64; 3], f64) {
+    fn placement(&self, a: u32, b: u32) -> (DVec3, f64) {
         let q = self.quad[a as usize].sum(&self.quad[b as usize]);
         let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
-        let mid = [
-            0.5 * (pa[0] + pb[0]),
-            0.5 * (pa[1] + pb[1]),
-            0.5 * (pa[2] + pb[2]),
-        ];
-        let len = norm(sub(pa, pb));
+        let mid = 0.5 * (pa + pb);
         if let Some(p) = q.minimiser()
-            && norm(sub(p, mid)) <= len
+            && p.distance(mid) <= pa.distance(pb)
         {
             return (p, q.eval(p));
         }
@@ -258,7 +249,7 @@ impl State {
 
     /// Whether collapsing `a` into `b` at `p` keeps the topology and the
     /// faces' orientation (the rules of the module doc).
-    fn allowed(&mut self, a: u32, b: u32, p: [f64; 3]) -> bool {
+    fn allowed(&mut self, a: u32, b: u32, p: DVec3) -> bool {
         let mut thirds = [u32::MAX; 2];
         let mut shared = 0;
         for &f in &self.around[a as usize] {
@@ -322,12 +313,10 @@ impl State {
                 if t.contains(&a) && t.contains(&b) {
                     continue;
                 }
-                let c = t.map(|u| self.pos[u as usize]);
-                let before = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-                let moved = t.map(|u| if u == v { p } else { self.pos[u as usize] });
-                let after = cross(sub(moved[1], moved[0]), sub(moved[2], moved[0]));
-                let (lb, la) = (norm(before), norm(after));
-                if !positive(la) || dot(before, after) < self.cos_max_turn * lb * la {
+                let before = face_cross(t.map(|u| self.pos[u as usize]));
+                let after = face_cross(t.map(|u| if u == v { p } else { self.pos[u as usize] }));
+                let (lb, la) = (before.length(), after.length());
+                if !positive(la) || before.dot(after) < self.cos_max_turn * lb * la {
                     return false;
                 }
             }
@@ -336,12 +325,11 @@ impl State {
     }
 
     /// Collapses `a` into `b`, `b` moving to `p`.
-    fn collapse(&mut self, a: u32, b: u32, p: [f64; 3]) {
+    fn collapse(&mut self, a: u32, b: u32, p: DVec3) {
         let qa = self.quad[a as usize];
         self.quad[b as usize].add(&qa);
         self.pos[b as usize] = p;
         self.border[b as usize] |= self.border[a as usize];
-        self.vertex_alive[a as usize] = false;
         self.vertices_left -= 1;
         let moved = std::mem::take(&mut self.around[a as usize]);
         let mut thirds = [u32::MAX; 2];
@@ -395,14 +383,9 @@ impl State {
                     if self.locked[a as usize] || self.locked[b as usize] {
                         return None;
                     }
-                    let once = a < b || {
-                        // On a border (one face) the edge has no reverse.
-                        self.around[a as usize]
-                            .iter()
-                            .filter(|&&f| self.faces[f as usize].contains(&b))
-                            .count()
-                            == 1
-                    };
+                    // On a border (one face) the edge has no reverse.
+                    let once =
+                        a < b || faces_on_edge(&self.around[a as usize], &self.faces, b) == 1;
                     once.then_some((a.min(b), a.max(b)))
                 })
             })
@@ -441,20 +424,24 @@ pub fn collapse_edges(positions: &[[f32; 3]], faces: &[[u32; 3]], stop: Stop) ->
     let vf = VertexFaces::new(faces, nv);
     let stars = vertex_stars(faces, &vf);
     let locked = defect_vertices(faces, positions, &stars);
-    let pos: Vec<[f64; 3]> = positions.iter().map(|p| p.map(f64::from)).collect();
+    let n_locked = locked.iter().filter(|l| **l).count();
+    let pos: Vec<DVec3> = positions
+        .iter()
+        .map(|p| DVec3::from(p.map(f64::from)))
+        .collect();
 
     // Face planes (parallel), then summed per vertex in face order.
     let planes: Vec<Quadric> = faces
         .par_iter()
         .map(|t| {
             let c = t.map(|v| pos[v as usize]);
-            let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-            let l = norm(n);
+            let n = face_cross(c);
+            let l = n.length();
             if !positive(l) {
                 return Quadric::default();
             }
-            let n = n.map(|x| x / l);
-            Quadric::plane(n, -dot(n, c[0]), 0.5 * l)
+            let n = n / l;
+            Quadric::plane(n, -n.dot(c[0]), 0.5 * l)
         })
         .collect();
     let mut quad = vec![Quadric::default(); nv];
@@ -464,7 +451,8 @@ pub fn collapse_edges(positions: &[[f32; 3]], faces: &[[u32; 3]], stop: Stop) ->
         }
     }
     // Border edges: the edge (v, w) of a face with no other face on it.
-    let mut around: Vec<Vec<u32>> = (0..nv).map(|v| vf.of(v).to_vec()).collect();
+    // (Face lists come in increasing face order from `VertexFaces`.)
+    let around: Vec<Vec<u32>> = (0..nv).map(|v| vf.of(v).to_vec()).collect();
     let border: Vec<bool> = stars.iter().map(|s| s.border).collect();
     for t in faces {
         for k in 0..3 {
@@ -472,52 +460,37 @@ pub fn collapse_edges(positions: &[[f32; 3]], faces: &[[u32; 3]], stop: Stop) ->
             if !border[v as usize] || !border[w as usize] {
                 continue;
             }
-            let on_edge = vf
-                .of(v as usize)
-                .iter()
-                .filter(|&&g| faces[g as usize].contains(&w))
-                .count();
-            if on_edge != 1 {
+            if faces_on_edge(vf.of(v as usize), faces, w) != 1 {
                 continue;
             }
             let (pv, pw) = (pos[v as usize], pos[w as usize]);
-            let e = sub(pw, pv);
-            let c = t.map(|u| pos[u as usize]);
-            let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-            let m = cross(e, n);
-            let lm = norm(m);
+            let e = pw - pv;
+            let m = e.cross(face_cross(t.map(|u| pos[u as usize])));
+            let lm = m.length();
             if !positive(lm) {
                 continue;
             }
-            let m = m.map(|x| x / lm);
-            let q = Quadric::plane(m, -dot(m, pv), BORDER_WEIGHT * dot(e, e));
+            let m = m / lm;
+            let q = Quadric::plane(m, -m.dot(pv), BORDER_WEIGHT * e.length_squared());
             quad[v as usize].add(&q);
             quad[w as usize].add(&q);
         }
     }
-    for list in &mut around {
-        list.sort_unstable();
-    }
-    let used = stars.iter().filter(|s| s.used).count();
+    let face_alive: Vec<bool> = faces.iter().map(|t| !repeats_index(t)).collect();
     let mut st = State {
         pos,
         quad,
         faces: faces.to_vec(),
-        face_alive: faces
-            .iter()
-            .map(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
-            .collect(),
+        faces_left: face_alive.iter().filter(|a| **a).count(),
+        face_alive,
         around,
         border,
-        locked: locked.clone(),
-        vertex_alive: vec![true; nv],
-        faces_left: 0,
-        vertices_left: used,
+        locked,
+        vertices_left: stars.iter().filter(|s| s.used).count(),
         mark: vec![0; nv],
         stamp: 0,
         cos_max_turn: MAX_TURN_DEG.to_radians().cos(),
     };
-    st.faces_left = st.face_alive.iter().filter(|a| **a).count();
     for v in 0..nv as u32 {
         st.tidy(v);
     }
@@ -545,7 +518,7 @@ pub fn collapse_edges(positions: &[[f32; 3]], faces: &[[u32; 3]], stop: Stop) ->
             let a_stays = match (st.border[a as usize], st.border[b as usize]) {
                 (true, false) => true,
                 (false, true) => false,
-                _ => norm(sub(p, pa)) <= norm(sub(p, pb)),
+                _ => p.distance(pa) <= p.distance(pb),
             };
             let (gone, stays) = if a_stays { (b, a) } else { (a, b) };
             if !st.allowed(gone, stays, p) {
@@ -582,12 +555,12 @@ pub fn collapse_edges(positions: &[[f32; 3]], faces: &[[u32; 3]], stop: Stop) ->
         .filter(|(_, a)| **a)
         .map(|(t, _)| *t)
         .collect();
-    let positions_out = st.pos.iter().map(|p| p.map(|x| x as f32)).collect();
+    let positions_out = st.pos.iter().map(|p| p.as_vec3().to_array()).collect();
     Collapsed {
         faces: faces_out,
         positions: positions_out,
         max_error,
-        locked: locked.iter().filter(|l| **l).count(),
+        locked: n_locked,
     }
 }
 
@@ -674,11 +647,8 @@ mod tests {
         }
         assert_eq!(shape(&out.faces, p.len()), (vec![1], false));
         for t in &out.faces {
-            let c = t.map(|v| out.positions[v as usize].map(f64::from));
-            assert!(
-                cross(sub(c[1], c[0]), sub(c[2], c[0]))[2] > 0.0,
-                "face {t:?} turned over"
-            );
+            let c = t.map(|v| DVec3::from(out.positions[v as usize].map(f64::from)));
+            assert!(face_cross(c).z > 0.0, "face {t:?} turned over");
         }
     }
 
@@ -687,28 +657,8 @@ mod tests {
     /// stays one closed manifold piece of genus 1 (χ = 0).
     #[test]
     fn thin_torus_stays_a_torus() {
-        let (nu, nv, big, small) = (200usize, 8usize, 1.0f64, 0.02f64);
-        let mut p = Vec::new();
-        for i in 0..nu {
-            let u = std::f64::consts::TAU * i as f64 / nu as f64;
-            for j in 0..nv {
-                let w = std::f64::consts::TAU * j as f64 / nv as f64;
-                let r = big + small * w.cos();
-                p.push([
-                    (r * u.cos()) as f32,
-                    (r * u.sin()) as f32,
-                    (small * w.sin()) as f32,
-                ]);
-            }
-        }
-        let id = |i: usize, j: usize| ((i % nu) * nv + j % nv) as u32;
-        let mut f = Vec::new();
-        for i in 0..nu {
-            for j in 0..nv {
-                f.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-                f.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-            }
-        }
+        let m = crate::testing::torus_mesh(200, 8, 1.0, 0.02);
+        let (p, f) = (m.vertices, m.faces);
         assert_eq!(shape(&f, p.len()), (vec![0], false));
         let out = collapse_edges(&p, &f, Stop::Faces(60));
         assert!(out.faces.len() <= 60, "{}", out.faces.len());
@@ -760,15 +710,13 @@ mod tests {
     /// the value is the weighted squared distance.
     #[test]
     fn quadric_minimiser() {
-        let mut q = Quadric::plane([1.0, 0.0, 0.0], -1.0, 1.0);
+        let mut q = Quadric::plane(DVec3::X, -1.0, 1.0);
         assert!(q.minimiser().is_none());
-        q.add(&Quadric::plane([0.0, 1.0, 0.0], -2.0, 2.0));
-        q.add(&Quadric::plane([0.0, 0.0, 1.0], 3.0, 0.5));
+        q.add(&Quadric::plane(DVec3::Y, -2.0, 2.0));
+        q.add(&Quadric::plane(DVec3::Z, 3.0, 0.5));
         let p = q.minimiser().unwrap();
-        for (got, want) in p.iter().zip([1.0, 2.0, -3.0]) {
-            assert!((got - want).abs() < 1e-12, "{p:?}");
-        }
+        assert!(p.distance(DVec3::new(1.0, 2.0, -3.0)) < 1e-12, "{p:?}");
         assert!(q.eval(p) < 1e-20);
-        assert!((q.eval([0.0, 2.0, -3.0]) - 1.0).abs() < 1e-12);
+        assert!((q.eval(DVec3::new(0.0, 2.0, -3.0)) - 1.0).abs() < 1e-12);
     }
 }

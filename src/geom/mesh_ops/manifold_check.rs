@@ -15,7 +15,7 @@
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
-use crate::geom::mesh_ops::clean::triangle_cross;
+use crate::geom::mesh_ops::clean::{position_key, repeats_index, triangle_cross};
 
 /// Faces around each vertex, as compressed rows: the faces of vertex `v`
 /// are `faces[start[v]..start[v + 1]]`, in increasing order.
@@ -130,7 +130,7 @@ fn star_pairs(faces: &[[u32; 3]], around: &[u32], v: usize, pairs: &mut Vec<(u32
     let mut nfaces = 0u32;
     for (k, &fi) in around.iter().enumerate() {
         let f = faces[fi as usize];
-        if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+        if repeats_index(&f) {
             continue;
         }
         nfaces += 1;
@@ -167,10 +167,7 @@ pub fn defect_vertices(
     for (i, f) in faces.iter().enumerate() {
         let p = f.map(|v| positions[v as usize].map(f64::from));
         let x = triangle_cross(p[0], p[1], p[2]);
-        let degenerate = f[0] == f[1]
-            || f[1] == f[2]
-            || f[0] == f[2]
-            || x[0] * x[0] + x[1] * x[1] + x[2] * x[2] == 0.0;
+        let degenerate = repeats_index(f) || x[0] * x[0] + x[1] * x[1] + x[2] * x[2] == 0.0;
         let mut key = *f;
         key.sort_unstable();
         let duplicate = match seen.insert(key, i as u32) {
@@ -193,7 +190,7 @@ pub fn defect_vertices(
         if !s.used {
             continue;
         }
-        let key = positions[v].map(|c| if c == 0.0 { 0 } else { c.to_bits() });
+        let key = position_key(&positions[v]);
         if let Some(&other) = at.get(&key) {
             bad[other as usize] = true;
             bad[v] = true;
@@ -219,10 +216,7 @@ pub struct Pieces {
 pub fn pieces(faces: &[[u32; 3]], stars: &[VertexStar]) -> Pieces {
     let nv = stars.len();
     let mut parent: Vec<u32> = (0..nv as u32).collect();
-    for f in faces
-        .iter()
-        .filter(|f| f[0] != f[1] && f[1] != f[2] && f[0] != f[2])
-    {
+    for f in faces.iter().filter(|f| !repeats_index(f)) {
         let mut r0 = root(&mut parent, f[0]);
         for &w in &f[1..] {
             let r = root(&mut parent, w);
@@ -252,7 +246,7 @@ pub fn pieces(faces: &[[u32; 3]], stars: &[VertexStar]) -> Pieces {
         euler[l as usize] += 1 - stars[v].edges_above as i64;
     }
     for f in faces {
-        if f[0] != f[1] && f[1] != f[2] && f[0] != f[2] {
+        if !repeats_index(f) {
             euler[label[f[0] as usize] as usize] += 1;
         }
     }
@@ -346,10 +340,7 @@ mod tests {
             let mut lab: Vec<u32> = (0..nv).collect();
             loop {
                 let mut changed = false;
-                for f in faces
-                    .iter()
-                    .filter(|f| f[0] != f[1] && f[1] != f[2] && f[0] != f[2])
-                {
+                for f in faces.iter().filter(|f| !repeats_index(f)) {
                     let m = f.iter().map(|&v| lab[v as usize]).min().unwrap();
                     for &v in f {
                         if lab[v as usize] != m {
